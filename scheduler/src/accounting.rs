@@ -1,0 +1,93 @@
+//! An accounting global allocator: every allocation is attributed to the code
+//! running on the calling thread (the executive or one of its tasks).
+//!
+//! Install it in a binary or test with
+//! `#[global_allocator] static A: AccountingAllocator = AccountingAllocator;`.
+//! Counting is per thread, so tests running in parallel do not disturb each
+//! other, and threads that never call [`set_slot`] are not counted at all.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use crate::MAX_TASKS;
+
+/// Slot 0 is the executive, slot `1 + i` task `i`.
+pub const SLOTS: usize = MAX_TASKS + 1;
+const UNTRACKED: u16 = u16::MAX;
+
+thread_local! {
+    static CURRENT: Cell<u16> = const { Cell::new(UNTRACKED) };
+    static COUNTS: [Cell<u64>; SLOTS] = const { [const { Cell::new(0) }; SLOTS] };
+    static BYTES: [Cell<u64>; SLOTS] = const { [const { Cell::new(0) }; SLOTS] };
+}
+
+/// Wraps the system allocator and counts.
+pub struct AccountingAllocator;
+
+#[inline]
+fn count(size: usize) {
+    // try_with: during thread teardown the slots may be gone; then don't count.
+    let _ = CURRENT.try_with(|c| {
+        let slot = c.get() as usize;
+        if slot < SLOTS {
+            let _ = COUNTS.try_with(|n| n[slot].set(n[slot].get() + 1));
+            let _ = BYTES.try_with(|b| b[slot].set(b[slot].get() + size as u64));
+        }
+    });
+}
+
+// SAFETY: every call is forwarded unchanged to the system allocator; counting
+// touches only const-initialised thread-locals, which never allocate.
+unsafe impl GlobalAlloc for AccountingAllocator {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count(layout.size());
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count(layout.size());
+        // SAFETY: forwarded with the caller's layout.
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        count(new_size);
+        // SAFETY: forwarded with the caller's pointer and layout.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: forwarded with the caller's pointer and layout.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+/// Attribute this thread's allocations to `slot` from now on.
+#[inline]
+pub fn set_slot(slot: u16) {
+    let _ = CURRENT.try_with(|c| c.set(slot));
+}
+
+/// Stop counting on this thread.
+pub fn untrack() {
+    set_slot(UNTRACKED);
+}
+
+/// Allocations (including reallocations) counted on this thread in `slot`.
+pub fn allocations(slot: usize) -> u64 {
+    COUNTS.with(|n| n.get(slot).map_or(0, Cell::get))
+}
+
+/// Bytes requested on this thread in `slot`.
+pub fn bytes(slot: usize) -> u64 {
+    BYTES.with(|b| b.get(slot).map_or(0, Cell::get))
+}
+
+/// All allocations counted on this thread, every slot.
+pub fn total_allocations() -> u64 {
+    COUNTS.with(|n| n.iter().map(Cell::get).sum())
+}
+
+/// Zero this thread's counters.
+pub fn reset() {
+    COUNTS.with(|n| n.iter().for_each(|c| c.set(0)));
+    BYTES.with(|b| b.iter().for_each(|c| c.set(0)));
+}

@@ -1,0 +1,54 @@
+//! Time: the frame clock that paces frames, and the platform that measures.
+
+/// Measures execution time and tells the allocator who is running.
+///
+/// Execution times are always taken from a monotonic clock, whatever the frame
+/// clock is. `enter` is called with the slot of the code about to run
+/// (0 = executive, `1 + i` = task `i`) so an accounting allocator can attribute
+/// allocations.
+pub trait Platform {
+    fn now_ns(&self) -> u64;
+    fn enter(&self, _slot: u16) {}
+}
+
+/// Slot number of the executive itself for [`Platform::enter`].
+pub const EXECUTIVE_SLOT: u16 = 0;
+
+/// Paces minor frames.
+pub trait FrameClock {
+    /// Called once before the first frame.
+    fn start(&mut self) {}
+    /// Wait until minor frame `frame` may start and return the frame to run:
+    /// `frame` itself, or a later one when the clock has slipped past it.
+    fn wait_frame(&mut self, frame: u64) -> u64;
+    /// Start time of `frame` in nanoseconds since start.
+    fn frame_time_ns(&self, frame: u64) -> u64;
+    fn minor_frame_ns(&self) -> u64;
+}
+
+/// Simulated time: exactly one minor frame per frame, however long the work
+/// took. Used by sim and replay; never slips.
+#[derive(Clone, Debug)]
+pub struct VirtualClock {
+    minor_frame_ns: u64,
+}
+
+impl VirtualClock {
+    pub fn new(minor_frame_us: u32) -> Self {
+        VirtualClock {
+            minor_frame_ns: minor_frame_us as u64 * 1000,
+        }
+    }
+}
+
+impl FrameClock for VirtualClock {
+    fn wait_frame(&mut self, frame: u64) -> u64 {
+        frame
+    }
+    fn frame_time_ns(&self, frame: u64) -> u64 {
+        frame * self.minor_frame_ns
+    }
+    fn minor_frame_ns(&self) -> u64 {
+        self.minor_frame_ns
+    }
+}

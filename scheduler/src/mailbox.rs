@@ -1,0 +1,159 @@
+//! Fixed-capacity mailboxes: the only way tasks exchange data.
+//!
+//! Both kinds hold their storage inline, so they are created at start-up and
+//! never allocate.
+
+/// A value with the time it is valid for and a publication counter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stamped<T> {
+    /// Time of validity of the data, nanoseconds since start.
+    pub stamp_ns: u64,
+    /// Publication number, 1 for the first; consumers compare it to notice news.
+    pub seq: u64,
+    pub value: T,
+}
+
+/// A latest-value slot: the producer overwrites, consumers read the newest.
+///
+/// The previous value is kept so that a late output can be withdrawn
+/// ([`Latest::retract`], the reuse-last overrun policy).
+#[derive(Clone, Debug)]
+pub struct Latest<T> {
+    current: Option<Stamped<T>>,
+    previous: Option<Stamped<T>>,
+    published: u64,
+}
+
+impl<T> Default for Latest<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T> Latest<T> {
+    pub const fn new() -> Self {
+        Latest {
+            current: None,
+            previous: None,
+            published: 0,
+        }
+    }
+
+    pub fn publish(&mut self, stamp_ns: u64, value: T) {
+        self.published += 1;
+        let new = Stamped {
+            stamp_ns,
+            seq: self.published,
+            value,
+        };
+        self.previous = self.current.replace(new);
+    }
+
+    /// The newest value, if any was published.
+    pub fn get(&self) -> Option<&Stamped<T>> {
+        self.current.as_ref()
+    }
+
+    /// The newest value if it is newer than publication `seen`.
+    pub fn newer_than(&self, seen: u64) -> Option<&Stamped<T>> {
+        self.current.as_ref().filter(|s| s.seq > seen)
+    }
+
+    /// Withdraw the newest value: the previous one (with its old timestamp and
+    /// sequence number) becomes current again. Only one level is kept.
+    pub fn retract(&mut self) {
+        if self.current.is_some() {
+            self.current = self.previous.take();
+        }
+    }
+}
+
+/// A bounded FIFO between one producer and one consumer task. A push into a
+/// full queue is refused and counted, never grown.
+#[derive(Debug)]
+pub struct Fifo<T, const N: usize> {
+    items: heapless::Deque<T, N>,
+    dropped: u64,
+}
+
+impl<T, const N: usize> Default for Fifo<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T, const N: usize> Fifo<T, N> {
+    pub const fn new() -> Self {
+        Fifo {
+            items: heapless::Deque::new(),
+            dropped: 0,
+        }
+    }
+
+    /// Returns false (and counts a drop) when full.
+    pub fn push(&mut self, item: T) -> bool {
+        match self.items.push_back(item) {
+            Ok(()) => true,
+            Err(_) => {
+                self.dropped += 1;
+                false
+            }
+        }
+    }
+
+    pub fn pop(&mut self) -> Option<T> {
+        self.items.pop_front()
+    }
+
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = &T> {
+        self.items.iter()
+    }
+
+    pub fn clear(&mut self) {
+        self.items.clear();
+    }
+
+    /// Items refused because the queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn latest_keeps_newest_and_can_withdraw_it() {
+        let mut m = Latest::new();
+        assert!(m.get().is_none());
+        m.publish(10, 1.0);
+        m.publish(20, 2.0);
+        assert_eq!(m.get().map(|s| (s.stamp_ns, s.seq, s.value)), Some((20, 2, 2.0)));
+        assert!(m.newer_than(2).is_none());
+        assert!(m.newer_than(1).is_some());
+        m.retract();
+        assert_eq!(m.get().map(|s| (s.stamp_ns, s.seq, s.value)), Some((10, 1, 1.0)));
+        m.publish(30, 3.0);
+        assert_eq!(m.get().map(|s| s.seq), Some(3));
+    }
+
+    #[test]
+    fn fifo_refuses_and_counts_when_full() {
+        let mut q: Fifo<u32, 4> = Fifo::new();
+        for i in 0..6 {
+            q.push(i);
+        }
+        assert_eq!(q.len(), 4);
+        assert_eq!(q.dropped(), 2);
+        assert_eq!(q.pop(), Some(0));
+    }
+}

@@ -1,0 +1,367 @@
+//! Executive behaviour: rate groups, anytime steps, overrun policies and the
+//! zero-allocation guarantee after start-up.
+
+use std::cell::Cell;
+
+use speleo_scheduler::accounting::{self, AccountingAllocator};
+use speleo_scheduler::mailbox::{Fifo, Latest};
+use speleo_scheduler::realtime::StdPlatform;
+use speleo_scheduler::{
+    AnytimeSpec, Context, Enforcement, Executive, Mode, OverrunPolicy, Platform, RateGroup,
+    Schedule, StepResult, Task, TaskSpec, VirtualClock,
+};
+
+#[global_allocator]
+static ALLOC: AccountingAllocator = AccountingAllocator;
+
+#[derive(Default)]
+struct Bus {
+    counter: Latest<u64>,
+    doubled: Latest<u64>,
+    log: Fifo<u64, 64>,
+    motor: Latest<f64>,
+    work_done: u64,
+}
+
+struct Producer;
+impl Task<Bus> for Producer {
+    fn run(&mut self, bus: &mut Bus, cx: &Context) {
+        let n = bus.counter.get().map_or(0, |s| s.value) + 1;
+        bus.counter.publish(cx.time_ns, n);
+        bus.log.push(n);
+    }
+}
+
+struct Doubler {
+    seen: u64,
+    degraded: bool,
+}
+impl Task<Bus> for Doubler {
+    fn run(&mut self, bus: &mut Bus, cx: &Context) {
+        if let Some(s) = bus.counter.newer_than(self.seen) {
+            self.seen = s.seq;
+            let factor = if self.degraded { 1 } else { 2 };
+            bus.doubled.publish(cx.time_ns, s.value * factor);
+        }
+        while bus.log.pop().is_some() {}
+    }
+    fn set_degraded(&mut self, on: bool) {
+        self.degraded = on;
+    }
+    fn retract(&mut self, bus: &mut Bus) {
+        bus.doubled.retract();
+    }
+}
+
+/// Anytime: counts down a fixed amount of work, `quantum` units per step.
+struct Countdown {
+    remaining: u64,
+}
+impl Task<Bus> for Countdown {
+    fn run(&mut self, _bus: &mut Bus, _cx: &Context) {
+        if self.remaining == 0 {
+            self.remaining = 1000;
+        }
+    }
+    fn step(&mut self, bus: &mut Bus, _cx: &Context, quantum: u32) -> StepResult {
+        let q = (quantum as u64).min(self.remaining);
+        self.remaining -= q;
+        bus.work_done += q;
+        if self.remaining == 0 {
+            StepResult::Idle
+        } else {
+            StepResult::Continue
+        }
+    }
+}
+
+struct MotorOut;
+impl Task<Bus> for MotorOut {
+    fn run(&mut self, bus: &mut Bus, cx: &Context) {
+        let cmd = if cx.mode == Mode::Safe { 0.0 } else { 1.5 };
+        bus.motor.publish(cx.time_ns, cmd);
+    }
+}
+
+fn specs() -> Vec<TaskSpec> {
+    vec![
+        TaskSpec::periodic("producer", RateGroup::EVERY_FRAME, 1000, OverrunPolicy::Skip).safe(),
+        TaskSpec::periodic("doubler", RateGroup::new(2, 1), 1000, OverrunPolicy::ReuseLast),
+        TaskSpec::anytime(
+            "countdown",
+            RateGroup::new(10, 3),
+            100,
+            OverrunPolicy::Degrade,
+            AnytimeSpec {
+                quantum: 7,
+                steps: 20,
+                window_us: 2000,
+            },
+        ),
+        TaskSpec::periodic("motor", RateGroup::EVERY_FRAME, 100, OverrunPolicy::SafeMode).safe(),
+    ]
+}
+
+#[test]
+fn ten_thousand_frames_allocate_nothing_after_start_up() {
+    let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
+    let mut bus = Bus::default();
+    let (mut p, mut d, mut c, mut m) = (
+        Producer,
+        Doubler {
+            seen: 0,
+            degraded: false,
+        },
+        Countdown { remaining: 0 },
+        MotorOut,
+    );
+    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
+    let _ = tasks.push(&mut p);
+    let _ = tasks.push(&mut d);
+    let _ = tasks.push(&mut c);
+    let _ = tasks.push(&mut m);
+    let mut exec = Executive::new(
+        schedule,
+        tasks,
+        StdPlatform,
+        VirtualClock::new(10_000),
+        Enforcement::CountOnly,
+    )
+    .expect("executive");
+    accounting::reset();
+    accounting::set_slot(0);
+    for _ in 0..10_000 {
+        exec.run_frame(&mut bus);
+        while exec.pop_event().is_some() {}
+    }
+    accounting::untrack();
+    let total = accounting::total_allocations();
+    assert_eq!(total, 0, "allocations after start-up");
+    let stats = exec.stats();
+    assert_eq!(stats[0].runs, 10_000);
+    assert_eq!(stats[1].runs, 5_000);
+    assert_eq!(stats[2].runs, 1_000);
+    assert_eq!(bus.counter.get().map(|s| s.value), Some(10_000));
+    assert_eq!(bus.doubled.get().map(|s| s.value), Some(20_000));
+    assert_eq!(bus.motor.get().map(|s| s.value), Some(1.5));
+}
+
+#[test]
+fn allocations_are_attributed_to_the_running_task() {
+    struct Allocates;
+    impl Task<Bus> for Allocates {
+        fn run(&mut self, _bus: &mut Bus, _cx: &Context) {
+            let v: Vec<u8> = Vec::with_capacity(64);
+            std::hint::black_box(v);
+        }
+    }
+    let schedule = Schedule::build(
+        10_000,
+        0,
+        &[
+            TaskSpec::periodic("quiet", RateGroup::EVERY_FRAME, 100, OverrunPolicy::Skip),
+            TaskSpec::periodic("leaky", RateGroup::EVERY_FRAME, 100, OverrunPolicy::Skip),
+        ],
+    )
+    .expect("fits");
+    let (mut q, mut l) = (MotorOut, Allocates);
+    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
+    let _ = tasks.push(&mut q);
+    let _ = tasks.push(&mut l);
+    let mut exec = Executive::new(
+        schedule,
+        tasks,
+        StdPlatform,
+        VirtualClock::new(10_000),
+        Enforcement::CountOnly,
+    )
+    .expect("executive");
+    let mut bus = Bus::default();
+    accounting::reset();
+    accounting::set_slot(0);
+    for _ in 0..10 {
+        exec.run_frame(&mut bus);
+    }
+    accounting::untrack();
+    assert_eq!(accounting::allocations(0), 0);
+    assert_eq!(accounting::allocations(1), 0);
+    assert_eq!(accounting::allocations(2), 10);
+    assert_eq!(accounting::bytes(2), 640);
+}
+
+/// A platform whose clock advances by a scripted amount per reading, so that
+/// overruns can be produced deterministically.
+struct ScriptedPlatform {
+    now: Cell<u64>,
+    /// Duration the next measured run takes, by task slot.
+    durations: Cell<[u64; 8]>,
+    slot: Cell<u16>,
+}
+impl ScriptedPlatform {
+    fn new() -> Self {
+        ScriptedPlatform {
+            now: Cell::new(0),
+            durations: Cell::new([0; 8]),
+            slot: Cell::new(0),
+        }
+    }
+}
+impl Platform for &ScriptedPlatform {
+    fn now_ns(&self) -> u64 {
+        // A reading taken while a task runs (its end) advances by its duration.
+        let slot = self.slot.get() as usize;
+        if slot != 0 {
+            self.now.set(self.now.get() + self.durations.get()[slot]);
+        }
+        self.now.get()
+    }
+    fn enter(&self, slot: u16) {
+        self.slot.set(slot);
+    }
+}
+
+fn run_policy_case(overrunning_slot: usize, frames: u64) -> (Bus, Vec<(u64, u64, u64, u64)>, Mode) {
+    let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
+    let platform = ScriptedPlatform::new();
+    let mut d = [50_000u64; 8];
+    d[overrunning_slot] = 5_000_000; // 5 ms, over every budget
+    platform.durations.set(d);
+    let mut bus = Bus::default();
+    let (mut p, mut dd, mut c, mut m) = (
+        Producer,
+        Doubler {
+            seen: 0,
+            degraded: false,
+        },
+        Countdown { remaining: 0 },
+        MotorOut,
+    );
+    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
+    let _ = tasks.push(&mut p);
+    let _ = tasks.push(&mut dd);
+    let _ = tasks.push(&mut c);
+    let _ = tasks.push(&mut m);
+    let mut exec = Executive::new(
+        schedule,
+        tasks,
+        &platform,
+        VirtualClock::new(10_000),
+        Enforcement::Enforce,
+    )
+    .expect("executive");
+    for _ in 0..frames {
+        exec.run_frame(&mut bus);
+    }
+    let stats = exec
+        .stats()
+        .iter()
+        .map(|s| (s.runs, s.overruns, s.skipped, s.retracted))
+        .collect();
+    let mode = exec.mode();
+    (bus, stats, mode)
+}
+
+#[test]
+fn skip_policy_drops_the_next_run() {
+    let (bus, stats, mode) = run_policy_case(1, 10);
+    // producer overruns every run and skips every other one.
+    assert_eq!(stats[0], (5, 5, 5, 0));
+    assert_eq!(bus.counter.get().map(|s| s.value), Some(5));
+    assert_eq!(mode, Mode::Nominal);
+}
+
+#[test]
+fn reuse_last_withdraws_the_late_output() {
+    let (bus, stats, _) = run_policy_case(2, 10);
+    assert_eq!(stats[1], (5, 5, 0, 5));
+    // Every output was withdrawn: consumers see none.
+    assert!(bus.doubled.get().is_none());
+}
+
+#[test]
+fn degrade_switches_the_task_to_its_reduced_mode() {
+    let (bus, stats, _) = run_policy_case(3, 10);
+    assert_eq!(stats[2].1, 1);
+    // Doubler is unaffected; countdown did its fixed work despite the overrun.
+    assert_eq!(bus.work_done, 140);
+}
+
+#[test]
+fn safe_mode_stops_the_motors_and_keeps_the_sensors() {
+    let (bus, stats, mode) = run_policy_case(4, 10);
+    assert_eq!(mode, Mode::Safe);
+    assert_eq!(bus.motor.get().map(|s| s.value), Some(0.0));
+    // The producer (a sensor driver, safe) kept running every frame...
+    assert_eq!(stats[0].0, 10);
+    // ...the doubler (not safe) never ran: safe mode began in frame 0.
+    assert_eq!(stats[1].0, 0);
+    assert_eq!(stats[1].2, 5);
+}
+
+#[test]
+fn count_only_changes_nothing() {
+    let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
+    let platform = ScriptedPlatform::new();
+    platform.durations.set([5_000_000; 8]);
+    let mut bus = Bus::default();
+    let (mut p, mut dd, mut c, mut m) = (
+        Producer,
+        Doubler {
+            seen: 0,
+            degraded: false,
+        },
+        Countdown { remaining: 0 },
+        MotorOut,
+    );
+    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
+    let _ = tasks.push(&mut p);
+    let _ = tasks.push(&mut dd);
+    let _ = tasks.push(&mut c);
+    let _ = tasks.push(&mut m);
+    let mut exec = Executive::new(
+        schedule,
+        tasks,
+        &platform,
+        VirtualClock::new(10_000),
+        Enforcement::CountOnly,
+    )
+    .expect("executive");
+    for _ in 0..20 {
+        exec.run_frame(&mut bus);
+    }
+    assert_eq!(exec.mode(), Mode::Nominal);
+    assert_eq!(exec.stats()[0].overruns, 20);
+    assert_eq!(bus.counter.get().map(|s| s.value), Some(20));
+    let mut logged = 0;
+    while exec.pop_event().is_some() {
+        logged += 1;
+    }
+    // 20 frames x 4 tasks, 10 a second logged.
+    assert_eq!(logged, 10);
+    assert!(exec.suppressed_events() > 0);
+}
+
+#[test]
+fn anytime_work_is_a_fixed_amount_per_run() {
+    // 20 steps of 7 units = 140 units per run, whatever the machine; in 14
+    // frames the group (10, 3) runs in frames 3 and 13.
+    let (bus, stats, _) = run_policy_case(0, 14);
+    assert_eq!(stats[2].0, 2);
+    assert_eq!(bus.work_done, 280);
+}
+
+#[test]
+fn wrong_task_count_is_refused() {
+    let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
+    let mut p = Producer;
+    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
+    let _ = tasks.push(&mut p);
+    assert!(Executive::new(
+        schedule,
+        tasks,
+        StdPlatform,
+        VirtualClock::new(10_000),
+        Enforcement::CountOnly
+    )
+    .is_err());
+}
