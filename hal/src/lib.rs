@@ -1,0 +1,96 @@
+//! Speleo's hardware boundary.
+//!
+//! Everything the rover exchanges with its devices crosses these traits as raw
+//! wire bytes: HDL-32E UDP packets, the Xsens serial byte stream and CAN frames
+//! for the CiA 402 motor drives. Three backends sit behind them: the real
+//! devices ([`real`]), simulated hardware ([`sim`]) and [`replay`] of a
+//! recording. Because the simulation emits the real wire formats, sim, replay
+//! and the rover all run the same decoders.
+
+pub mod can;
+pub mod outbox;
+pub mod cia402;
+pub mod real;
+pub mod replay;
+pub mod sim;
+pub mod xbus;
+
+use thiserror::Error;
+
+pub use can::CanFrame;
+
+/// The devices whose raw input is recorded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Device {
+    /// HDL-32E data packets (UDP 2368).
+    Lidar,
+    /// Xsens MTi serial bytes.
+    Imu,
+    /// CAN frames from the motor drives, in SocketCAN's 16-byte layout.
+    Can,
+}
+
+impl Device {
+    pub const ALL: [Device; 3] = [Device::Lidar, Device::Imu, Device::Can];
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Device::Lidar => "lidar",
+            Device::Imu => "imu",
+            Device::Can => "can",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Device> {
+        Device::ALL.into_iter().find(|d| d.name() == s)
+    }
+}
+
+/// Receives raw inputs as they are read: the device, the receive time in
+/// nanoseconds since start, and the bytes exactly as received.
+pub trait InputSink {
+    fn input(&mut self, device: Device, receive_time_ns: u64, bytes: &[u8]);
+}
+
+#[derive(Debug, Error)]
+pub enum HalError {
+    #[error("{device}: {source}")]
+    Io {
+        device: &'static str,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Config(String),
+    #[error("CAN transmit queue full")]
+    TxFull,
+}
+
+/// A LiDAR packet source (one UDP datagram per input).
+pub trait LidarSource {
+    fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError>;
+}
+
+/// The IMU's serial line: bytes in, configuration bytes out.
+pub trait ImuPort {
+    fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError>;
+    fn write(&mut self, bytes: &[u8]) -> Result<(), HalError>;
+}
+
+/// The CAN bus the four motor drives are on: wheel velocity commands go out
+/// as CiA 402 PDOs; position, velocity and status come back the same way.
+pub trait CanBus {
+    fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError>;
+    fn send(&mut self, now_ns: u64, frame: &CanFrame) -> Result<(), HalError>;
+}
+
+/// The whole rover as seen by the on-board software.
+pub trait Hardware {
+    /// Bring the hardware up to time `now_ns` (the start of a minor frame).
+    /// Simulated hardware integrates its physics here; real and replayed
+    /// hardware have nothing to do.
+    fn advance_to(&mut self, _now_ns: u64) {}
+    fn lidar(&mut self) -> &mut dyn LidarSource;
+    fn imu(&mut self) -> &mut dyn ImuPort;
+    fn can(&mut self) -> &mut dyn CanBus;
+}

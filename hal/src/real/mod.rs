@@ -1,0 +1,3 @@
+//! Transports to the real devices.
+
+pub mod udp_lidar;

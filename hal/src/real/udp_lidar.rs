@@ -1,0 +1,111 @@
+//! HDL-32E data packets from a UDP socket.
+
+use std::io::ErrorKind;
+use std::net::{SocketAddr, UdpSocket};
+
+use crate::{Device, HalError, InputSink, LidarSource};
+
+/// Largest datagram accepted; HDL-32E data packets are 1206 bytes.
+const MAX_DATAGRAM: usize = 1500;
+/// At most this many datagrams per poll, so one frame cannot be flooded.
+const MAX_PER_POLL: usize = 256;
+
+/// A non-blocking UDP socket that accepts datagrams only from the configured
+/// sensor address.
+pub struct UdpLidar {
+    socket: UdpSocket,
+    sensor: SocketAddr,
+    buf: Box<[u8; MAX_DATAGRAM]>,
+    /// Datagrams from other senders.
+    pub foreign: u64,
+    /// Datagrams dropped because the per-poll limit was reached were left in
+    /// the socket buffer; this counts polls that hit the limit.
+    pub saturated_polls: u64,
+    clock: fn() -> u64,
+}
+
+impl UdpLidar {
+    /// Bind `local` (e.g. `0.0.0.0:2368`) and accept only `sensor`.
+    /// `clock` gives receive times in the executive's time base.
+    pub fn bind(local: SocketAddr, sensor: SocketAddr, clock: fn() -> u64) -> Result<Self, HalError> {
+        let io = |source| HalError::Io {
+            device: "lidar",
+            source,
+        };
+        let socket = UdpSocket::bind(local).map_err(io)?;
+        socket.set_nonblocking(true).map_err(io)?;
+        Ok(UdpLidar {
+            socket,
+            sensor,
+            buf: Box::new([0; MAX_DATAGRAM]),
+            foreign: 0,
+            saturated_polls: 0,
+            clock,
+        })
+    }
+
+    pub fn local_addr(&self) -> Option<SocketAddr> {
+        self.socket.local_addr().ok()
+    }
+}
+
+impl LidarSource for UdpLidar {
+    fn poll(&mut self, _now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
+        for _ in 0..MAX_PER_POLL {
+            match self.socket.recv_from(&mut self.buf[..]) {
+                Ok((n, from)) => {
+                    if from != self.sensor {
+                        self.foreign += 1;
+                        continue;
+                    }
+                    sink.input(Device::Lidar, (self.clock)(), &self.buf[..n]);
+                }
+                Err(e) if e.kind() == ErrorKind::WouldBlock => return Ok(()),
+                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+                Err(source) => {
+                    return Err(HalError::Io {
+                        device: "lidar",
+                        source,
+                    })
+                }
+            }
+        }
+        self.saturated_polls += 1;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Collect(Vec<Vec<u8>>);
+    impl InputSink for Collect {
+        fn input(&mut self, _d: Device, _t: u64, bytes: &[u8]) {
+            self.0.push(bytes.to_vec());
+        }
+    }
+
+    #[test]
+    fn only_the_sensor_is_heard() {
+        let sensor = UdpSocket::bind("127.0.0.1:0").expect("bind sensor");
+        let stranger = UdpSocket::bind("127.0.0.1:0").expect("bind stranger");
+        let mut lidar = UdpLidar::bind(
+            "127.0.0.1:0".parse().expect("addr"),
+            sensor.local_addr().expect("addr"),
+            || 7,
+        )
+        .expect("bind");
+        let to = lidar.local_addr().expect("addr");
+        sensor.send_to(&[1u8; 1206], to).expect("send");
+        stranger.send_to(&[2u8; 1206], to).expect("send");
+        sensor.send_to(&[3u8; 10], to).expect("send");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        let mut c = Collect(Vec::new());
+        lidar.poll(0, &mut c).expect("poll");
+        assert_eq!(c.0.len(), 2);
+        assert_eq!(c.0[0].len(), 1206);
+        assert_eq!(c.0[1], vec![3u8; 10]);
+        assert_eq!(lidar.foreign, 1);
+    }
+}

@@ -1,0 +1,140 @@
+//! Simulated hardware: a skid-steer rover on flat ground with twins of its
+//! IMU and motor drives that speak the real wire formats.
+//!
+//! The rover obeys the wheel velocity commands it receives as CiA 402 PDOs;
+//! its IMU emits Xbus MTData2 frames at 100 Hz and its drives answer every
+//! SYNC with their PDOs. The world is flat ground; the generated caves, the
+//! physics rover and the LiDAR twin replace it in later work, behind the same
+//! traits. Everything is seeded, and the trigonometry is `libm`'s pure-Rust
+//! code, so the byte streams repeat on any machine.
+
+pub mod drives;
+pub mod imu;
+pub mod noise;
+pub mod rover;
+
+use crate::can::CanFrame;
+use crate::outbox::Outbox;
+use crate::{CanBus, Device, HalError, Hardware, ImuPort, InputSink, LidarSource};
+
+pub use rover::{GroundTruth, RoverParams};
+
+/// Physics step of the flat-ground model.
+const STEP_NS: u64 = 1_000_000;
+
+/// Everything configurable about the simulated hardware.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimParams {
+    pub seed: u64,
+    pub rover: RoverParams,
+    pub imu: imu::ImuParams,
+    pub drives: drives::DriveParams,
+}
+
+impl Default for SimParams {
+    fn default() -> Self {
+        SimParams {
+            seed: 1,
+            rover: RoverParams::default(),
+            imu: imu::ImuParams::default(),
+            drives: drives::DriveParams::default(),
+        }
+    }
+}
+
+/// The simulated rover and its devices.
+pub struct SimHardware {
+    t_ns: u64,
+    rover: rover::Rover,
+    imu: imu::SimImu,
+    drives: drives::SimDrives,
+    lidar: NoLidar,
+}
+
+impl SimHardware {
+    pub fn new(p: &SimParams) -> Self {
+        SimHardware {
+            t_ns: 0,
+            rover: rover::Rover::new(p.rover.clone()),
+            imu: imu::SimImu::new(p.imu.clone(), p.seed),
+            drives: drives::SimDrives::new(p.drives.clone()),
+            lidar: NoLidar,
+        }
+    }
+
+    /// The true pose. For the ground-truth recording only: on-board tasks
+    /// never see it.
+    pub fn ground_truth(&self) -> GroundTruth {
+        self.rover.truth(self.t_ns)
+    }
+
+    /// Counters of frames the simulated devices could not deliver.
+    pub fn dropped(&self) -> u64 {
+        self.imu.dropped() + self.drives.dropped()
+    }
+}
+
+impl Hardware for SimHardware {
+    fn advance_to(&mut self, now_ns: u64) {
+        while self.t_ns + STEP_NS <= now_ns {
+            let targets = self.drives.wheel_targets(self.t_ns);
+            self.rover.step(STEP_NS, &targets);
+            self.t_ns += STEP_NS;
+            self.drives.observe(&self.rover);
+            self.imu.maybe_sample(self.t_ns, &self.rover);
+        }
+    }
+    fn lidar(&mut self) -> &mut dyn LidarSource {
+        &mut self.lidar
+    }
+    fn imu(&mut self) -> &mut dyn ImuPort {
+        &mut self.imu
+    }
+    fn can(&mut self) -> &mut dyn CanBus {
+        &mut self.drives
+    }
+}
+
+/// Flat ground carries no LiDAR twin: it yields no packets.
+struct NoLidar;
+
+impl LidarSource for NoLidar {
+    fn poll(&mut self, _now_ns: u64, _sink: &mut dyn InputSink) -> Result<(), HalError> {
+        Ok(())
+    }
+}
+
+/// Hand the items of `outbox` that have arrived by `now_ns` to `sink`.
+fn deliver<const N: usize, const M: usize>(
+    outbox: &mut Outbox<N, M>,
+    device: Device,
+    now_ns: u64,
+    sink: &mut dyn InputSink,
+) {
+    while let Some((t, bytes)) = outbox.pop_due(now_ns) {
+        sink.input(device, t, &bytes);
+    }
+}
+
+impl CanBus for drives::SimDrives {
+    fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
+        deliver(self.outbox(), Device::Can, now_ns, sink);
+        Ok(())
+    }
+    fn send(&mut self, now_ns: u64, frame: &CanFrame) -> Result<(), HalError> {
+        self.receive(now_ns, frame);
+        Ok(())
+    }
+}
+
+impl ImuPort for imu::SimImu {
+    fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
+        deliver(self.outbox(), Device::Imu, now_ns, sink);
+        Ok(())
+    }
+    fn write(&mut self, _bytes: &[u8]) -> Result<(), HalError> {
+        // The twin starts in measurement mode with the output configuration
+        // Speleo asks for; configuration messages need no answer yet.
+        Ok(())
+    }
+}
