@@ -127,9 +127,95 @@ impl<T, const N: usize> Fifo<T, N> {
     }
 }
 
+/// A broadcast ring: the producer appends, every consumer reads everything
+/// published since its own cursor. When a consumer falls more than `N` items
+/// behind, the oldest items are overwritten and the consumer is told how many
+/// it lost. Storage is inline.
+#[derive(Debug)]
+pub struct Ring<T, const N: usize> {
+    slots: [Option<Stamped<T>>; N],
+    published: u64,
+}
+
+impl<T, const N: usize> Default for Ring<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T, const N: usize> Ring<T, N> {
+    pub const fn new() -> Self {
+        Ring {
+            slots: [const { None }; N],
+            published: 0,
+        }
+    }
+
+    pub fn publish(&mut self, stamp_ns: u64, value: T) {
+        self.published += 1;
+        let i = (self.published - 1) as usize % N;
+        self.slots[i] = Some(Stamped {
+            stamp_ns,
+            seq: self.published,
+            value,
+        });
+    }
+
+    /// Items published so far; a consumer that starts now uses this as its cursor.
+    pub fn published(&self) -> u64 {
+        self.published
+    }
+
+    /// Call `f` with every item published after `*cursor`, oldest first, and
+    /// advance the cursor. Returns the number of items lost to overwriting.
+    pub fn read_since(&self, cursor: &mut u64, mut f: impl FnMut(&Stamped<T>)) -> u64 {
+        let oldest = self.published.saturating_sub(N as u64);
+        let lost = oldest.saturating_sub(*cursor);
+        let mut seq = (*cursor).max(oldest);
+        while seq < self.published {
+            if let Some(item) = &self.slots[seq as usize % N] {
+                f(item);
+            }
+            seq += 1;
+        }
+        *cursor = self.published;
+        lost
+    }
+
+    /// The newest item.
+    pub fn latest(&self) -> Option<&Stamped<T>> {
+        if self.published == 0 {
+            return None;
+        }
+        self.slots[(self.published - 1) as usize % N].as_ref()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ring_consumers_read_independently_and_count_losses() {
+        let mut r: Ring<u32, 4> = Ring::new();
+        let (mut a, mut b) = (0u64, 0u64);
+        for i in 0..3 {
+            r.publish(i as u64, i);
+        }
+        let mut got = Vec::new();
+        assert_eq!(r.read_since(&mut a, |s| got.push(s.value)), 0);
+        assert_eq!(got, vec![0, 1, 2]);
+        for i in 3..10 {
+            r.publish(i as u64, i);
+        }
+        got.clear();
+        assert_eq!(r.read_since(&mut a, |s| got.push(s.value)), 3);
+        assert_eq!(got, vec![6, 7, 8, 9]);
+        got.clear();
+        assert_eq!(r.read_since(&mut b, |s| got.push(s.value)), 6);
+        assert_eq!(got, vec![6, 7, 8, 9]);
+        assert_eq!(r.latest().map(|s| s.value), Some(9));
+    }
 
     #[test]
     fn latest_keeps_newest_and_can_withdraw_it() {
