@@ -115,7 +115,10 @@ mod tests {
         assert_eq!(CanFrame::from_socketcan(&b), Err(CanDecodeError::BadDlc(9)));
         let mut e = [0u8; 16];
         e[3] = 0x20;
-        assert_eq!(CanFrame::from_socketcan(&e), Err(CanDecodeError::ErrorFrame));
+        assert_eq!(
+            CanFrame::from_socketcan(&e),
+            Err(CanDecodeError::ErrorFrame)
+        );
         let mut s = [0u8; 16];
         s[..4].copy_from_slice(&0x800u32.to_le_bytes());
         assert_eq!(

@@ -84,9 +84,9 @@ impl DriveState {
             DriveState::SwitchOnDisabled | DriveState::NotReadyToSwitchOn => controlword::SHUTDOWN,
             DriveState::ReadyToSwitchOn => controlword::SWITCH_ON,
             DriveState::SwitchedOn | DriveState::OperationEnabled => controlword::ENABLE_OPERATION,
-            DriveState::QuickStopActive
-            | DriveState::FaultReactionActive
-            | DriveState::Unknown => controlword::DISABLE_VOLTAGE,
+            DriveState::QuickStopActive | DriveState::FaultReactionActive | DriveState::Unknown => {
+                controlword::DISABLE_VOLTAGE
+            }
         }
     }
 }
@@ -138,7 +138,10 @@ pub enum Pdo {
 pub enum PdoError {
     /// Not a COB-ID of the mapping (other CANopen traffic: NMT, SDO, heartbeat).
     Unmapped,
-    WrongLength { id: u32, len: u8 },
+    WrongLength {
+        id: u32,
+        len: u8,
+    },
 }
 
 pub fn decode(f: &CanFrame) -> Result<Pdo, PdoError> {
@@ -194,10 +197,19 @@ mod tests {
     #[test]
     fn epos_enable_sequence_statuswords_decode() {
         // maxon EPOS trace (../shared/data/can): 0x0740 -> 0x0721 -> 0x0723 -> 0x0737.
-        assert_eq!(DriveState::from_statusword(0x0740), DriveState::SwitchOnDisabled);
-        assert_eq!(DriveState::from_statusword(0x0721), DriveState::ReadyToSwitchOn);
+        assert_eq!(
+            DriveState::from_statusword(0x0740),
+            DriveState::SwitchOnDisabled
+        );
+        assert_eq!(
+            DriveState::from_statusword(0x0721),
+            DriveState::ReadyToSwitchOn
+        );
         assert_eq!(DriveState::from_statusword(0x0723), DriveState::SwitchedOn);
-        assert_eq!(DriveState::from_statusword(0x0737), DriveState::OperationEnabled);
+        assert_eq!(
+            DriveState::from_statusword(0x0737),
+            DriveState::OperationEnabled
+        );
         assert_eq!(DriveState::SwitchOnDisabled.next_enable_command(), 0x0006);
         assert_eq!(DriveState::ReadyToSwitchOn.next_enable_command(), 0x0007);
         assert_eq!(DriveState::SwitchedOn.next_enable_command(), 0x000F);
@@ -232,10 +244,7 @@ mod tests {
 
     #[test]
     fn other_traffic_and_bad_lengths_are_reported() {
-        assert_eq!(
-            decode(&CanFrame::new(0x702, &[5])),
-            Err(PdoError::Unmapped)
-        );
+        assert_eq!(decode(&CanFrame::new(0x702, &[5])), Err(PdoError::Unmapped));
         assert!(matches!(
             decode(&CanFrame::new(0x182, &[1, 2, 3])),
             Err(PdoError::WrongLength { .. })

@@ -8,8 +8,8 @@
 //! and the rover all run the same decoders.
 
 pub mod can;
-pub mod outbox;
 pub mod cia402;
+pub mod outbox;
 pub mod real;
 pub mod replay;
 pub mod sim;

@@ -47,7 +47,6 @@ pub struct ReplayHardware {
     pub imu_sent: u64,
 }
 
-
 impl ReplayHardware {
     /// `inputs` in recorded order.
     pub fn new(minor_frame_us: u32, inputs: Vec<RecordedInput>) -> Self {

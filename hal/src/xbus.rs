@@ -49,9 +49,7 @@ pub fn encode_frame<const N: usize>(
             out.extend_from_slice(&n.to_be_bytes()).map_err(drop)?;
         }
         out.extend_from_slice(payload).map_err(drop)?;
-        let sum = out[start + 1..]
-            .iter()
-            .fold(0u8, |s, &b| s.wrapping_add(b));
+        let sum = out[start + 1..].iter().fold(0u8, |s, &b| s.wrapping_add(b));
         out.push(0u8.wrapping_sub(sum)).map_err(drop)?;
         Ok(())
     })()
@@ -150,7 +148,9 @@ pub fn parse_mtdata2(payload: &[u8]) -> Result<ImuData, TruncatedItem> {
             return Err(TruncatedItem { offset: i });
         };
         match id {
-            did::PACKET_COUNTER if size == 2 => out.packet_counter = Some(u16::from_be_bytes([d[0], d[1]])),
+            did::PACKET_COUNTER if size == 2 => {
+                out.packet_counter = Some(u16::from_be_bytes([d[0], d[1]]))
+            }
             did::SAMPLE_TIME_FINE if size == 4 => {
                 out.sample_time_fine = Some(u32::from_be_bytes([d[0], d[1], d[2], d[3]]))
             }
@@ -335,13 +335,17 @@ mod tests {
 
     #[test]
     fn truncated_items_are_reported_not_panicked() {
-        assert_eq!(parse_mtdata2(&[0x10, 0x20]), Err(TruncatedItem { offset: 0 }));
+        assert_eq!(
+            parse_mtdata2(&[0x10, 0x20]),
+            Err(TruncatedItem { offset: 0 })
+        );
         assert_eq!(
             parse_mtdata2(&[0x10, 0x20, 0x02, 0x00]),
             Err(TruncatedItem { offset: 0 })
         );
         // Unknown id skipped by size.
-        let ok = parse_mtdata2(&[0x77, 0x77, 0x01, 0xAA, 0x10, 0x20, 0x02, 0x00, 0x05]).expect("ok");
+        let ok =
+            parse_mtdata2(&[0x77, 0x77, 0x01, 0xAA, 0x10, 0x20, 0x02, 0x00, 0x05]).expect("ok");
         assert_eq!(ok.packet_counter, Some(5));
     }
 

@@ -11,8 +11,12 @@ use std::cell::Cell;
 
 use crate::MAX_TASKS;
 
-/// Slot 0 is the executive, slot `1 + i` task `i`.
-pub const SLOTS: usize = MAX_TASKS + 1;
+/// Slot 0 is the executive, slot `1 + i` task `i`, and the last slot the
+/// application's housekeeping between frames (logging, progress display),
+/// which is kept apart from the periodic work.
+pub const SLOTS: usize = MAX_TASKS + 2;
+/// The housekeeping slot.
+pub const HOUSEKEEPING: u16 = (MAX_TASKS + 1) as u16;
 const UNTRACKED: u16 = u16::MAX;
 
 thread_local! {

@@ -233,7 +233,8 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
 
     /// The task whose overrun switched to safe mode, if that was the cause.
     pub fn safe_mode_cause(&self) -> Option<&str> {
-        self.safe_cause.map(|i| self.schedule.tasks()[i].name.as_str())
+        self.safe_cause
+            .map(|i| self.schedule.tasks()[i].name.as_str())
     }
 
     pub fn schedule(&self) -> &Schedule {

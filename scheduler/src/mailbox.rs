@@ -223,11 +223,17 @@ mod tests {
         assert!(m.get().is_none());
         m.publish(10, 1.0);
         m.publish(20, 2.0);
-        assert_eq!(m.get().map(|s| (s.stamp_ns, s.seq, s.value)), Some((20, 2, 2.0)));
+        assert_eq!(
+            m.get().map(|s| (s.stamp_ns, s.seq, s.value)),
+            Some((20, 2, 2.0))
+        );
         assert!(m.newer_than(2).is_none());
         assert!(m.newer_than(1).is_some());
         m.retract();
-        assert_eq!(m.get().map(|s| (s.stamp_ns, s.seq, s.value)), Some((10, 1, 1.0)));
+        assert_eq!(
+            m.get().map(|s| (s.stamp_ns, s.seq, s.value)),
+            Some((10, 1, 1.0))
+        );
         m.publish(30, 3.0);
         assert_eq!(m.get().map(|s| s.seq), Some(3));
     }

@@ -23,12 +23,27 @@ pub struct Schedule {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ScheduleError {
     ZeroMinorFrame,
-    TooManyTasks { max: usize },
-    DuplicateName { name: crate::TaskName },
-    BadRateGroup { task: crate::TaskName, divisor: u32, offset: u32 },
-    ZeroBudget { task: crate::TaskName },
-    BadAnytime { task: crate::TaskName, reason: &'static str },
-    HyperperiodTooLong { frames: u64 },
+    TooManyTasks {
+        max: usize,
+    },
+    DuplicateName {
+        name: crate::TaskName,
+    },
+    BadRateGroup {
+        task: crate::TaskName,
+        divisor: u32,
+        offset: u32,
+    },
+    ZeroBudget {
+        task: crate::TaskName,
+    },
+    BadAnytime {
+        task: crate::TaskName,
+        reason: &'static str,
+    },
+    HyperperiodTooLong {
+        frames: u64,
+    },
     /// The budgets of the tasks that run in `frame` plus the margin exceed the
     /// minor frame.
     Overbooked {
@@ -267,7 +282,11 @@ mod tests {
         let s = Schedule::build(
             10_000,
             500,
-            &[task("a", 1, 0, 4000), task("b", 2, 0, 2000), task("c", 2, 1, 5000)],
+            &[
+                task("a", 1, 0, 4000),
+                task("b", 2, 0, 2000),
+                task("c", 2, 1, 5000),
+            ],
         )
         .expect("fits");
         assert_eq!(s.hyperperiod(), 2);
@@ -341,7 +360,11 @@ mod tests {
             Err(ScheduleError::BadAnytime { .. })
         ));
         assert!(matches!(
-            Schedule::build(1000, 0, &[task("a", 999_983, 0, 1), task("b", 999_979, 0, 1)]),
+            Schedule::build(
+                1000,
+                0,
+                &[task("a", 999_983, 0, 1), task("b", 999_979, 0, 1)]
+            ),
             Err(ScheduleError::HyperperiodTooLong { .. })
         ));
     }

@@ -85,8 +85,19 @@ impl Task<Bus> for MotorOut {
 
 fn specs() -> Vec<TaskSpec> {
     vec![
-        TaskSpec::periodic("producer", RateGroup::EVERY_FRAME, 1000, OverrunPolicy::Skip).safe(),
-        TaskSpec::periodic("doubler", RateGroup::new(2, 1), 1000, OverrunPolicy::ReuseLast),
+        TaskSpec::periodic(
+            "producer",
+            RateGroup::EVERY_FRAME,
+            1000,
+            OverrunPolicy::Skip,
+        )
+        .safe(),
+        TaskSpec::periodic(
+            "doubler",
+            RateGroup::new(2, 1),
+            1000,
+            OverrunPolicy::ReuseLast,
+        ),
         TaskSpec::anytime(
             "countdown",
             RateGroup::new(10, 3),
@@ -98,7 +109,13 @@ fn specs() -> Vec<TaskSpec> {
                 window_us: 2000,
             },
         ),
-        TaskSpec::periodic("motor", RateGroup::EVERY_FRAME, 100, OverrunPolicy::SafeMode).safe(),
+        TaskSpec::periodic(
+            "motor",
+            RateGroup::EVERY_FRAME,
+            100,
+            OverrunPolicy::SafeMode,
+        )
+        .safe(),
     ]
 }
 

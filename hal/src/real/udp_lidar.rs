@@ -27,7 +27,11 @@ pub struct UdpLidar {
 impl UdpLidar {
     /// Bind `local` (e.g. `0.0.0.0:2368`) and accept only `sensor`.
     /// `clock` gives receive times in the executive's time base.
-    pub fn bind(local: SocketAddr, sensor: SocketAddr, clock: fn() -> u64) -> Result<Self, HalError> {
+    pub fn bind(
+        local: SocketAddr,
+        sensor: SocketAddr,
+        clock: fn() -> u64,
+    ) -> Result<Self, HalError> {
         let io = |source| HalError::Io {
             device: "lidar",
             source,

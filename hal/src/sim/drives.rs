@@ -140,7 +140,11 @@ fn transition(s: DriveState, previous_cw: u16, cw: u16) -> DriveState {
     use DriveState::*;
     let fault_reset_edge = cw & 0x80 != 0 && previous_cw & 0x80 == 0;
     if s == Fault {
-        return if fault_reset_edge { SwitchOnDisabled } else { Fault };
+        return if fault_reset_edge {
+            SwitchOnDisabled
+        } else {
+            Fault
+        };
     }
     if cw & 0x80 != 0 {
         return s;

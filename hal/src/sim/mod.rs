@@ -42,9 +42,14 @@ impl Default for SimParams {
     }
 }
 
+/// A read-only view of the true pose, updated as the simulation advances.
+/// Given to the recorder's ground-truth topic only; on-board tasks never get it.
+pub type TruthProbe = std::rc::Rc<std::cell::Cell<GroundTruth>>;
+
 /// The simulated rover and its devices.
 pub struct SimHardware {
     t_ns: u64,
+    truth: TruthProbe,
     rover: rover::Rover,
     imu: imu::SimImu,
     drives: drives::SimDrives,
@@ -53,9 +58,11 @@ pub struct SimHardware {
 
 impl SimHardware {
     pub fn new(p: &SimParams) -> Self {
+        let rover = rover::Rover::new(p.rover.clone());
         SimHardware {
             t_ns: 0,
-            rover: rover::Rover::new(p.rover.clone()),
+            truth: std::rc::Rc::new(std::cell::Cell::new(rover.truth(0))),
+            rover,
             imu: imu::SimImu::new(p.imu.clone(), p.seed),
             drives: drives::SimDrives::new(p.drives.clone()),
             lidar: NoLidar,
@@ -66,6 +73,11 @@ impl SimHardware {
     /// never see it.
     pub fn ground_truth(&self) -> GroundTruth {
         self.rover.truth(self.t_ns)
+    }
+
+    /// A handle that follows the true pose after every `advance_to`.
+    pub fn truth_probe(&self) -> TruthProbe {
+        self.truth.clone()
     }
 
     /// Counters of frames the simulated devices could not deliver.
@@ -83,6 +95,7 @@ impl Hardware for SimHardware {
             self.drives.observe(&self.rover);
             self.imu.maybe_sample(self.t_ns, &self.rover);
         }
+        self.truth.set(self.rover.truth(self.t_ns));
     }
     fn lidar(&mut self) -> &mut dyn LidarSource {
         &mut self.lidar

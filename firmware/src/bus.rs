@@ -1,0 +1,220 @@
+//! The mailboxes every task reads and writes: the whole data flow of one
+//! minor frame. Created once at start-up; nothing in it grows afterwards.
+
+use speleo_hal::cia402::DriveState;
+use speleo_hal::xbus::XbusCounters;
+use speleo_hal::{CanFrame, Device, InputSink};
+use speleo_scheduler::mailbox::{Fifo, Latest, Ring};
+use speleo_scheduler::Mode;
+
+/// One decoded IMU sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ImuSample {
+    pub packet_counter: u16,
+    pub sample_time_fine: u32,
+    /// w, x, y, z
+    pub orientation: [f64; 4],
+    pub acceleration: [f64; 3],
+    pub rate_of_turn: [f64; 3],
+    pub status_word: u32,
+}
+
+/// Feedback of one wheel drive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WheelFeedback {
+    pub state: DriveState,
+    pub statusword: u16,
+    /// mrad/s at the wheel.
+    pub velocity: i32,
+    pub position: i32,
+}
+
+impl Default for WheelFeedback {
+    fn default() -> Self {
+        WheelFeedback {
+            state: DriveState::NotReadyToSwitchOn,
+            statusword: 0,
+            velocity: 0,
+            position: 0,
+        }
+    }
+}
+
+/// Feedback of all four drives.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DriveFeedback {
+    pub wheels: [WheelFeedback; 4],
+    /// Receive time of each wheel's last statusword (TPDO1); 0 = never.
+    pub status_time_ns: [u64; 4],
+    /// Receive time of each wheel's last position (TPDO2); 0 = never.
+    pub position_time_ns: [u64; 4],
+}
+
+/// Odometry pose of base_link in the odom frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OdomPose {
+    pub position: [f64; 3],
+    /// w, x, y, z
+    pub orientation: [f64; 4],
+    pub distance_m: f64,
+}
+
+/// The path follower's command.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WheelCommand {
+    pub speed: f64,
+    pub yaw_rate: f64,
+    /// rad/s: front left, front right, rear left, rear right.
+    pub wheel_speeds: [f64; 4],
+    pub segment: u32,
+    pub done: bool,
+}
+
+/// What the health task concluded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HealthReport {
+    pub stale_mask: u32,
+    pub drive_faults: u8,
+    pub safe_mode: bool,
+}
+
+/// Counters every driver keeps, reported by health.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    pub imu: XbusCounters,
+    pub imu_bad_items: u64,
+    pub imu_other_messages: u64,
+    pub can_frames: u64,
+    pub can_malformed: u64,
+    pub can_unmapped: u64,
+    pub can_bad_length: u64,
+    pub raw_dropped: u64,
+    pub can_tx_dropped: u64,
+    pub hal_errors: u64,
+    pub imu_samples_lost: u64,
+}
+
+/// One raw input of this frame, stored in [`RawFrame`]'s arena.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RawEntry {
+    pub device: Device,
+    pub receive_time_ns: u64,
+    start: u32,
+    len: u32,
+}
+
+/// The raw inputs received in the current frame: bytes in one arena sized at
+/// start-up. Inputs that do not fit are dropped and counted.
+#[derive(Debug)]
+pub struct RawFrame {
+    bytes: Vec<u8>,
+    entries: Vec<RawEntry>,
+    pub dropped: u64,
+}
+
+impl RawFrame {
+    pub fn with_capacity(bytes: usize, entries: usize) -> Self {
+        RawFrame {
+            bytes: Vec::with_capacity(bytes),
+            entries: Vec::with_capacity(entries),
+            dropped: 0,
+        }
+    }
+
+    pub fn clear(&mut self) {
+        self.bytes.clear();
+        self.entries.clear();
+    }
+
+    pub fn entries(&self) -> &[RawEntry] {
+        &self.entries
+    }
+
+    pub fn bytes_of(&self, e: &RawEntry) -> &[u8] {
+        &self.bytes[e.start as usize..(e.start + e.len) as usize]
+    }
+
+    /// Entries of one device with their bytes, in arrival order.
+    pub fn of(&self, device: Device) -> impl Iterator<Item = (&RawEntry, &[u8])> {
+        self.entries
+            .iter()
+            .filter(move |e| e.device == device)
+            .map(|e| (e, self.bytes_of(e)))
+    }
+}
+
+impl InputSink for RawFrame {
+    fn input(&mut self, device: Device, receive_time_ns: u64, bytes: &[u8]) {
+        // Never grow: the capacities were fixed at start-up.
+        if self.entries.len() == self.entries.capacity()
+            || self.bytes.len() + bytes.len() > self.bytes.capacity()
+        {
+            self.dropped += 1;
+            return;
+        }
+        self.entries.push(RawEntry {
+            device,
+            receive_time_ns,
+            start: self.bytes.len() as u32,
+            len: bytes.len() as u32,
+        });
+        self.bytes.extend_from_slice(bytes);
+    }
+}
+
+/// Arena sizes: a frame of HDL-32E traffic is ~18 packets of 1206 bytes.
+pub const RAW_ARENA_BYTES: usize = 256 * 1024;
+pub const RAW_ENTRIES: usize = 2048;
+
+pub struct Bus {
+    pub raw: RawFrame,
+    pub imu: Ring<ImuSample, 32>,
+    pub drives: Latest<DriveFeedback>,
+    pub odom: Latest<OdomPose>,
+    pub command: Latest<WheelCommand>,
+    /// Frames to put on the CAN bus at the start of the next frame.
+    pub can_tx: Fifo<CanFrame, 32>,
+    pub health: Latest<HealthReport>,
+    pub counters: Counters,
+    /// Set by health when the executive must switch to the safe schedule.
+    pub safe_mode_request: bool,
+    /// The executive's mode, mirrored for the recorder and health.
+    pub mode: Mode,
+}
+
+impl Bus {
+    pub fn new() -> Box<Bus> {
+        Box::new(Bus {
+            raw: RawFrame::with_capacity(RAW_ARENA_BYTES, RAW_ENTRIES),
+            imu: Ring::new(),
+            drives: Latest::new(),
+            odom: Latest::new(),
+            command: Latest::new(),
+            can_tx: Fifo::new(),
+            health: Latest::new(),
+            counters: Counters::default(),
+            safe_mode_request: false,
+            mode: Mode::Nominal,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn raw_frame_never_grows() {
+        let mut r = RawFrame::with_capacity(10, 2);
+        r.input(Device::Imu, 1, &[1, 2, 3]);
+        r.input(Device::Can, 2, &[4; 8]); // bytes full
+        r.input(Device::Can, 3, &[5; 7]);
+        r.input(Device::Can, 4, &[]); // entries full
+        assert_eq!(r.entries().len(), 2);
+        assert_eq!(r.dropped, 2);
+        assert_eq!(
+            r.of(Device::Imu).next().map(|(_, b)| b),
+            Some(&[1u8, 2, 3][..])
+        );
+    }
+}

@@ -1,0 +1,123 @@
+//! The command line.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::modes;
+
+/// Speleo: on-board autonomy for rovers that explore lava tubes and caves.
+///
+/// Every mode runs the same deterministic cyclic executive and the same
+/// drivers: `sim` against simulated hardware on virtual time, `replay`
+/// against a recording, `run` against the real rover on the monotonic clock.
+#[derive(Parser, Debug)]
+#[command(name = "speleo", version, propagate_version = true)]
+pub struct Cli {
+    /// More log output (-v: debug, -vv: trace). RUST_LOG overrides.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    pub verbose: u8,
+    /// Do not draw a progress bar.
+    #[arg(long, global = true)]
+    pub no_progress: bool,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Run a simulated mission on virtual time: the executive against
+    /// simulated hardware that emits the real wire bytes.
+    Sim(SimArgs),
+    /// Feed a recording's raw inputs back through the same drivers and tasks
+    /// and compare every output with the recording. Prints `identical`, or the
+    /// first divergence (topic, frame, field) and exits with status 1.
+    Replay(ReplayArgs),
+    /// Run on the real rover: monotonic clock, real devices, overrun policies
+    /// enforced. Stops on Ctrl-C or after --duration.
+    Run(RunArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct Outputs {
+    /// Record every raw input and every output to this MCAP file.
+    #[arg(long, value_name = "OUT.mcap")]
+    pub record: Option<PathBuf>,
+    /// Write the run's figures (frames, output hash, per-task times) as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct SimArgs {
+    /// World to simulate (available: flat).
+    #[arg(long, value_name = "NAME|MESH")]
+    pub world: Option<String>,
+    /// Seed of every random source of the simulation [default: from config, 1].
+    #[arg(long, value_name = "N")]
+    pub seed: Option<u64>,
+    /// Simulated seconds to run [default: from config, 60].
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+    /// Configuration file; values not given keep their defaults.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    #[command(flatten)]
+    pub out: Outputs,
+}
+
+#[derive(Args, Debug)]
+pub struct ReplayArgs {
+    /// The recording to replay (a file cut short by a killed process is
+    /// replayed up to its last complete chunk).
+    #[arg(value_name = "LOG.mcap")]
+    pub log: PathBuf,
+    #[command(flatten)]
+    pub out: Outputs,
+}
+
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Configuration file with the [devices] table.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: PathBuf,
+    /// Stop after this many seconds (default: until Ctrl-C).
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+    #[command(flatten)]
+    pub out: Outputs,
+}
+
+fn init_logging(verbose: u8) {
+    let default = match verbose {
+        0 => "info",
+        1 => "debug",
+        _ => "trace",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .try_init();
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging(cli.verbose);
+    let progress = !cli.no_progress;
+    let result = match cli.command {
+        Command::Sim(a) => modes::sim(a, progress),
+        Command::Replay(a) => modes::replay(a, progress),
+        Command::Run(a) => modes::run(a, progress),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}

@@ -1,0 +1,483 @@
+//! The TOML configuration. Every table refuses unknown keys, and every value
+//! is range-checked with a message that names its key.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum ConfigError {
+    #[error("cannot read {path}: {source}")]
+    Read {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("configuration: {0}")]
+    Parse(String),
+    #[error("configuration: `{key}` = {value} is out of range ({range})")]
+    OutOfRange {
+        key: String,
+        value: String,
+        range: &'static str,
+    },
+    #[error("configuration: `{key}`: {why}")]
+    Invalid { key: String, why: String },
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    pub executive: ExecutiveConfig,
+    /// Per-task overrides of the schedule table, by task name.
+    pub tasks: BTreeMap<String, TaskOverride>,
+    pub sim: SimConfig,
+    pub rover: RoverConfig,
+    pub control: ControlConfig,
+    pub health: HealthConfig,
+    pub record: RecordConfig,
+    pub devices: DevicesConfig,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ExecutiveConfig {
+    pub minor_frame_us: u32,
+    /// Time kept free in every frame.
+    pub margin_us: u32,
+    /// Unix time (s) that virtual time 0 maps to in recordings of sim runs.
+    pub epoch_unix_s: u64,
+    /// SCHED_FIFO priority asked for by `speleo run`.
+    pub realtime_priority: i32,
+    /// Apply overrun policies on the virtual clock too (budget tests). Off by
+    /// default so sim and replay outputs do not depend on machine speed.
+    pub enforce_policies_in_sim: bool,
+}
+
+impl Default for ExecutiveConfig {
+    fn default() -> Self {
+        ExecutiveConfig {
+            minor_frame_us: 10_000,
+            margin_us: 1_000,
+            epoch_unix_s: 1_767_225_600, // 2026-01-01T00:00:00Z
+            realtime_priority: 80,
+            enforce_policies_in_sim: false,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TaskOverride {
+    pub divisor: Option<u32>,
+    pub offset: Option<u32>,
+    pub budget_us: Option<u32>,
+    pub policy: Option<String>,
+    pub steps: Option<u32>,
+    pub quantum: Option<u32>,
+    pub window_us: Option<u32>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    pub seed: u64,
+    pub world: String,
+    pub duration_s: f64,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            seed: 1,
+            world: "flat".into(),
+            duration_s: 60.0,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RoverConfig {
+    pub wheel_radius_m: f64,
+    pub track_width_m: f64,
+    pub skid_factor: f64,
+    pub max_wheel_speed: f64,
+}
+
+impl Default for RoverConfig {
+    fn default() -> Self {
+        let r = speleo_hal::sim::RoverParams::default();
+        RoverConfig {
+            wheel_radius_m: r.wheel_radius_m,
+            track_width_m: r.track_width_m,
+            skid_factor: r.skid_factor,
+            max_wheel_speed: r.max_wheel_speed,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ControlConfig {
+    /// Scripted path, (x, y) in metres in the odometry frame.
+    pub path: Vec<[f64; 2]>,
+    pub looped: bool,
+    pub cruise_speed: f64,
+    pub lookahead_m: f64,
+    pub max_yaw_rate: f64,
+    /// Commands older than this are not sent; the wheels get zero.
+    pub command_timeout_ms: u32,
+}
+
+impl Default for ControlConfig {
+    fn default() -> Self {
+        ControlConfig {
+            path: vec![
+                [0.0, 0.0],
+                [6.0, 0.0],
+                [8.0, 2.0],
+                [8.0, 4.0],
+                [6.0, 6.0],
+                [0.0, 6.0],
+                [-2.0, 4.0],
+                [-2.0, 2.0],
+            ],
+            looped: true,
+            cruise_speed: 0.4,
+            lookahead_m: 0.8,
+            max_yaw_rate: 0.8,
+            command_timeout_ms: 100,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HealthConfig {
+    pub imu_timeout_ms: u32,
+    pub drive_timeout_ms: u32,
+    pub startup_grace_ms: u32,
+    /// Enter the safe schedule when a device goes silent.
+    pub safe_mode_on_stale: bool,
+}
+
+impl Default for HealthConfig {
+    fn default() -> Self {
+        HealthConfig {
+            imu_timeout_ms: 50,
+            drive_timeout_ms: 50,
+            startup_grace_ms: 500,
+            safe_mode_on_stale: true,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RecordConfig {
+    /// Uncompressed size at which a chunk is closed and written out; a killed
+    /// process loses at most the open chunk.
+    pub chunk_size_kib: u32,
+    /// "zstd" or "none".
+    pub compression: String,
+    /// Message buffers shared with the writer thread, allocated at start-up.
+    pub pool_messages: u32,
+    /// Scheduler telemetry period, frames.
+    pub telemetry_every_frames: u32,
+}
+
+impl Default for RecordConfig {
+    fn default() -> Self {
+        RecordConfig {
+            chunk_size_kib: 512,
+            compression: "zstd".into(),
+            pool_messages: 2048,
+            telemetry_every_frames: 100,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DevicesConfig {
+    /// Local address the HDL-32E data packets are received on.
+    pub lidar_bind: String,
+    /// The sensor's address; datagrams from anywhere else are dropped.
+    pub lidar_sensor: String,
+    pub imu_port: String,
+    pub imu_baud: u32,
+    pub can_interface: String,
+}
+
+impl Default for DevicesConfig {
+    fn default() -> Self {
+        DevicesConfig {
+            lidar_bind: "0.0.0.0:2368".into(),
+            lidar_sensor: "192.168.1.201:2368".into(),
+            imu_port: "/dev/ttyUSB0".into(),
+            imu_baud: 921_600,
+            can_interface: "can0".into(),
+        }
+    }
+}
+
+fn range<T: PartialOrd + std::fmt::Display>(
+    key: &str,
+    v: T,
+    lo: T,
+    hi: T,
+    text: &'static str,
+) -> Result<(), ConfigError> {
+    if v >= lo && v <= hi {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange {
+            key: key.into(),
+            value: v.to_string(),
+            range: text,
+        })
+    }
+}
+
+impl Config {
+    pub fn from_toml(text: &str) -> Result<Config, ConfigError> {
+        let c: Config = toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        c.validate()?;
+        Ok(c)
+    }
+
+    pub fn load(path: &Path) -> Result<Config, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Self::from_toml(&text).map_err(|e| match e {
+            ConfigError::Parse(m) => ConfigError::Parse(format!("{}: {m}", path.display())),
+            other => other,
+        })
+    }
+
+    /// The effective configuration as TOML (stored in every recording).
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).unwrap_or_default()
+    }
+
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let e = &self.executive;
+        range(
+            "executive.minor_frame_us",
+            e.minor_frame_us,
+            100,
+            1_000_000,
+            "100..=1000000",
+        )?;
+        range(
+            "executive.margin_us",
+            e.margin_us,
+            0,
+            e.minor_frame_us,
+            "0..=minor_frame_us",
+        )?;
+        range(
+            "executive.realtime_priority",
+            e.realtime_priority,
+            1,
+            99,
+            "1..=99",
+        )?;
+        for (name, t) in &self.tasks {
+            if let Some(p) = &t.policy {
+                if speleo_scheduler::OverrunPolicy::parse(p).is_none() {
+                    return Err(ConfigError::Invalid {
+                        key: format!("tasks.{name}.policy"),
+                        why: format!(
+                            "unknown policy \"{p}\" (use skip, reuse-last, degrade or safe-mode)"
+                        ),
+                    });
+                }
+            }
+            if let Some(d) = t.divisor {
+                range(
+                    &format!("tasks.{name}.divisor"),
+                    d,
+                    1,
+                    100_000,
+                    "1..=100000",
+                )?;
+            }
+            if let Some(b) = t.budget_us {
+                range(
+                    &format!("tasks.{name}.budget_us"),
+                    b,
+                    1,
+                    10_000_000,
+                    "1..=10000000",
+                )?;
+            }
+        }
+        let s = &self.sim;
+        range("sim.duration_s", s.duration_s, 0.0, 1.0e7, "0..=10000000")?;
+        if s.world != "flat" {
+            return Err(ConfigError::Invalid {
+                key: "sim.world".into(),
+                why: format!("unknown world \"{}\" (available: flat)", s.world),
+            });
+        }
+        let r = &self.rover;
+        range(
+            "rover.wheel_radius_m",
+            r.wheel_radius_m,
+            0.01,
+            2.0,
+            "0.01..=2",
+        )?;
+        range(
+            "rover.track_width_m",
+            r.track_width_m,
+            0.05,
+            5.0,
+            "0.05..=5",
+        )?;
+        range("rover.skid_factor", r.skid_factor, 1.0, 5.0, "1..=5")?;
+        range(
+            "rover.max_wheel_speed",
+            r.max_wheel_speed,
+            0.1,
+            100.0,
+            "0.1..=100",
+        )?;
+        let c = &self.control;
+        if c.path.len() < 2 || c.path.len() > speleo_control::MAX_WAYPOINTS {
+            return Err(ConfigError::Invalid {
+                key: "control.path".into(),
+                why: format!(
+                    "needs 2 to {} waypoints, has {}",
+                    speleo_control::MAX_WAYPOINTS,
+                    c.path.len()
+                ),
+            });
+        }
+        if c.path.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(ConfigError::Invalid {
+                key: "control.path".into(),
+                why: "waypoints must be finite numbers".into(),
+            });
+        }
+        range("control.cruise_speed", c.cruise_speed, 0.0, 5.0, "0..=5")?;
+        range(
+            "control.lookahead_m",
+            c.lookahead_m,
+            0.05,
+            20.0,
+            "0.05..=20",
+        )?;
+        range(
+            "control.max_yaw_rate",
+            c.max_yaw_rate,
+            0.01,
+            10.0,
+            "0.01..=10",
+        )?;
+        range(
+            "control.command_timeout_ms",
+            c.command_timeout_ms,
+            10,
+            10_000,
+            "10..=10000",
+        )?;
+        let h = &self.health;
+        range(
+            "health.imu_timeout_ms",
+            h.imu_timeout_ms,
+            1,
+            60_000,
+            "1..=60000",
+        )?;
+        range(
+            "health.drive_timeout_ms",
+            h.drive_timeout_ms,
+            1,
+            60_000,
+            "1..=60000",
+        )?;
+        range(
+            "health.startup_grace_ms",
+            h.startup_grace_ms,
+            0,
+            600_000,
+            "0..=600000",
+        )?;
+        let rec = &self.record;
+        range(
+            "record.chunk_size_kib",
+            rec.chunk_size_kib,
+            4,
+            1 << 20,
+            "4..=1048576",
+        )?;
+        range(
+            "record.pool_messages",
+            rec.pool_messages,
+            16,
+            1 << 20,
+            "16..=1048576",
+        )?;
+        range(
+            "record.telemetry_every_frames",
+            rec.telemetry_every_frames,
+            1,
+            1 << 20,
+            "1..=1048576",
+        )?;
+        if rec.compression != "zstd" && rec.compression != "none" {
+            return Err(ConfigError::Invalid {
+                key: "record.compression".into(),
+                why: format!("\"{}\" is not zstd or none", rec.compression),
+            });
+        }
+        range(
+            "devices.imu_baud",
+            self.devices.imu_baud,
+            1200,
+            4_000_000,
+            "1200..=4000000",
+        )?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid_and_round_trip() {
+        let c = Config::default();
+        c.validate().expect("valid");
+        assert_eq!(Config::from_toml(&c.to_toml()).expect("parses"), c);
+    }
+
+    #[test]
+    fn unknown_keys_are_named() {
+        let e = Config::from_toml("[executive]\nminor_frame_ms = 10\n").expect_err("refused");
+        let m = e.to_string();
+        assert!(m.contains("minor_frame_ms"), "{m}");
+        let e = Config::from_toml("[sim]\nseed = 1\ncolour = 2\n").expect_err("refused");
+        assert!(e.to_string().contains("colour"), "{e}");
+        let e = Config::from_toml("[tasks.odometry]\nbudjet_us = 3\n").expect_err("refused");
+        assert!(e.to_string().contains("budjet_us"), "{e}");
+    }
+
+    #[test]
+    fn out_of_range_values_are_named() {
+        let e = Config::from_toml("[executive]\nminor_frame_us = 5\n").expect_err("refused");
+        assert!(e.to_string().contains("executive.minor_frame_us"), "{e}");
+        let e = Config::from_toml("[tasks.control]\npolicy = \"panic\"\n").expect_err("refused");
+        assert!(e.to_string().contains("tasks.control.policy"), "{e}");
+        let e = Config::from_toml("[rover]\nwheel_radius_m = -1.0\n").expect_err("refused");
+        assert!(e.to_string().contains("rover.wheel_radius_m"), "{e}");
+    }
+}

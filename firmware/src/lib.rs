@@ -1,0 +1,13 @@
+//! The `speleo` flight software: configuration, the schedule table that wires
+//! tasks to mailboxes, the modes (sim, replay, run), the MCAP recorder and the
+//! reports. `main.rs` is only the entry point.
+
+pub mod bus;
+pub mod cli;
+pub mod config;
+pub mod mission;
+pub mod modes;
+pub mod record;
+pub mod report;
+pub mod schedule_table;
+pub mod tasks;

@@ -1,0 +1,335 @@
+//! One run of the executive against some hardware: wire the tasks to the
+//! bus, run frames, record, and collect the figures for the report.
+
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+use speleo_control::{FollowerParams, Path, PurePursuit, SkidSteer};
+use speleo_hal::sim::TruthProbe;
+use speleo_hal::{cia402, Hardware};
+use speleo_odometry::OdometryParams;
+use speleo_scheduler::accounting;
+use speleo_scheduler::executive::ExecutiveError;
+use speleo_scheduler::realtime::StdPlatform;
+use speleo_scheduler::{Enforcement, Executive, FrameClock, Mode, Schedule, Task};
+
+use crate::bus::Bus;
+use crate::config::Config;
+use crate::record::encode::{Pose, PoseInFrame, Quaternion, SeqOf, Time};
+use crate::record::tap::TapCounters;
+use crate::record::{RecorderTap, Topic};
+use crate::tasks::recorder::mode_name;
+use crate::tasks::{
+    control, drive_driver, drive_output, health, imu_driver, io, odometry, recorder,
+};
+
+/// How long the mission runs.
+#[derive(Clone, Copy, Debug)]
+pub enum Length {
+    Frames(u64),
+    /// Until the stop flag is raised.
+    UntilStopped,
+}
+
+pub struct MissionInputs<'a> {
+    pub cfg: &'a Config,
+    pub schedule: Schedule,
+    pub length: Length,
+    pub enforcement: Enforcement,
+    pub truth: Option<TruthProbe>,
+    pub stop: &'a AtomicBool,
+    /// Called between frames with (frames done, frames total) for progress.
+    pub progress: Option<&'a dyn Fn(u64, Option<u64>)>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct TaskFigures {
+    pub name: String,
+    pub period_us: u64,
+    pub budget_us: u32,
+    pub policy: String,
+    pub runs: u64,
+    pub max_us: f64,
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub p999_us: f64,
+    pub overruns: u64,
+    pub skipped: u64,
+    pub allocations: u64,
+}
+
+pub struct MissionResult {
+    pub frames: u64,
+    pub sim_time_s: f64,
+    pub wall_time_s: f64,
+    pub output_hash: u64,
+    pub minor_frame_us: u32,
+    pub slips: u64,
+    pub allocations_after_init: u64,
+    pub housekeeping_allocations: u64,
+    pub tasks: Vec<TaskFigures>,
+    pub mode: Mode,
+    pub safe_mode_cause: Option<String>,
+    pub suppressed_events: u64,
+    pub recorder: TapCounters,
+    pub counters: crate::bus::Counters,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum MissionError {
+    #[error("{0}")]
+    Executive(#[from] ExecutiveError),
+}
+
+/// Park this thread once on a channel so the standard library's per-thread
+/// blocking context exists before the first frame (it is created lazily on
+/// first use, which would otherwise count as an allocation mid-run).
+fn warm_up_blocking() {
+    let (_tx, rx) = std::sync::mpsc::sync_channel::<()>(1);
+    let _ = rx.recv_timeout(Duration::from_micros(1));
+}
+
+fn follower(cfg: &Config) -> PurePursuit {
+    let mut path = Path::new();
+    for p in &cfg.control.path {
+        let _ = path.push(*p);
+    }
+    PurePursuit::new(
+        FollowerParams {
+            lookahead_m: cfg.control.lookahead_m,
+            cruise_speed: cfg.control.cruise_speed,
+            max_yaw_rate: cfg.control.max_yaw_rate,
+            goal_tolerance_m: 0.2,
+        },
+        path,
+        cfg.control.looped,
+    )
+}
+
+/// Run the mission. The tap is created by the caller (with or without a
+/// writer, with or without a comparer) and is returned inside `tap` after
+/// the run, for finishing.
+pub fn run<C: FrameClock>(
+    m: MissionInputs<'_>,
+    hw: &mut dyn Hardware,
+    tap: &RefCell<RecorderTap>,
+    clock: C,
+) -> Result<MissionResult, MissionError> {
+    let cfg = m.cfg;
+    let r = &cfg.rover;
+    let mut bus = Bus::new();
+    let mut t_io = io::IoTask::new(hw);
+    let mut t_imu = imu_driver::ImuDriver::default();
+    let mut t_drive = drive_driver::DriveDriver::default();
+    let mut t_odo = odometry::OdometryTask::new(OdometryParams {
+        wheel_radius_m: r.wheel_radius_m,
+        counts_per_rev: cia402::COUNTS_PER_REV as f64,
+        max_step_m: 1.0,
+    });
+    let mut t_control = control::ControlTask::new(
+        follower(cfg),
+        SkidSteer {
+            wheel_radius_m: r.wheel_radius_m,
+            track_width_m: r.track_width_m,
+            skid_factor: r.skid_factor,
+            max_wheel_speed: r.max_wheel_speed,
+        },
+    );
+    let mut t_out =
+        drive_output::DriveOutput::new(cfg.control.command_timeout_ms as u64 * 1_000_000);
+    let h = &cfg.health;
+    let mut t_health = health::HealthTask::new(
+        h.imu_timeout_ms as u64 * 1_000_000,
+        h.drive_timeout_ms as u64 * 1_000_000,
+        h.startup_grace_ms as u64 * 1_000_000,
+        h.safe_mode_on_stale,
+    );
+    let mut t_rec = recorder::RecorderTask::new(tap, cfg.control.path.clone(), cfg.control.looped);
+
+    // Same order as schedule_table::TASKS.
+    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, { speleo_scheduler::MAX_TASKS }> =
+        heapless::Vec::new();
+    let _ = tasks.push(&mut t_io);
+    let _ = tasks.push(&mut t_imu);
+    let _ = tasks.push(&mut t_drive);
+    let _ = tasks.push(&mut t_odo);
+    let _ = tasks.push(&mut t_control);
+    let _ = tasks.push(&mut t_out);
+    let _ = tasks.push(&mut t_health);
+    let _ = tasks.push(&mut t_rec);
+    let minor_frame_us = m.schedule.minor_frame_us();
+    let ntasks = m.schedule.tasks().len();
+    let mut exec = Executive::new(m.schedule, tasks, StdPlatform, clock, m.enforcement)?;
+
+    let total = match m.length {
+        Length::Frames(n) => Some(n),
+        Length::UntilStopped => None,
+    };
+    let telemetry_every = cfg.record.telemetry_every_frames as u64;
+    warm_up_blocking();
+    let started = Instant::now();
+    accounting::reset();
+    accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
+    loop {
+        if total.is_some_and(|n| exec.frames_run() >= n) || m.stop.load(Ordering::Relaxed) {
+            break;
+        }
+        let f = exec.run_frame(&mut bus);
+        if bus.safe_mode_request && exec.mode() == Mode::Nominal {
+            exec.enter_safe_mode();
+        }
+        bus.mode = exec.mode();
+        if let Some(truth) = &m.truth {
+            record_truth(&mut tap.borrow_mut(), f.frame, f.time_ns, truth);
+        }
+        if (f.frame + 1) % telemetry_every == 0 {
+            record_telemetry(&mut tap.borrow_mut(), &exec, f.frame, f.time_ns);
+        }
+        // Logging and progress display allocate; they are housekeeping
+        // between frames, accounted apart from the periodic work.
+        accounting::set_slot(accounting::HOUSEKEEPING);
+        while let Some(ev) = exec.pop_event() {
+            tracing::debug!(
+                task = ev.task.as_str(),
+                frame = ev.frame,
+                took_us = ev.duration_ns as f64 / 1e3,
+                budget_us = ev.budget_ns as f64 / 1e3,
+                enforced = ev.enforced,
+                "overrun"
+            );
+        }
+        if let Some(p) = m.progress {
+            if f.frame % 100 == 0 {
+                p(exec.frames_run(), total);
+            }
+        }
+        accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
+    }
+    accounting::untrack();
+    let wall = started.elapsed().as_secs_f64();
+    let allocations_after_init: u64 = (0..=ntasks).map(accounting::allocations).sum();
+    let housekeeping_allocations = accounting::allocations(accounting::HOUSEKEEPING as usize);
+
+    if let Some(c) = tap.borrow_mut().comparer_mut() {
+        c.finish();
+    }
+    let tasks = exec
+        .schedule()
+        .tasks()
+        .iter()
+        .zip(exec.stats())
+        .enumerate()
+        .map(|(i, (spec, st))| TaskFigures {
+            name: spec.name.to_string(),
+            period_us: spec.rate.period_us(minor_frame_us),
+            budget_us: spec.run_budget_us(),
+            policy: spec.policy.to_string(),
+            runs: st.runs,
+            max_us: st.max_us(),
+            p50_us: st.p50_us(),
+            p99_us: st.p99_us(),
+            p999_us: st.p999_us(),
+            overruns: st.overruns,
+            skipped: st.skipped,
+            allocations: accounting::allocations(i + 1),
+        })
+        .collect();
+    let frames = exec.frames_run();
+    let t = tap.borrow();
+    Ok(MissionResult {
+        frames,
+        sim_time_s: frames as f64 * minor_frame_us as f64 * 1e-6,
+        wall_time_s: wall,
+        output_hash: t.output_hash(),
+        minor_frame_us,
+        slips: exec.slips(),
+        allocations_after_init,
+        housekeeping_allocations,
+        tasks,
+        mode: exec.mode(),
+        safe_mode_cause: exec.safe_mode_cause().map(str::to_string),
+        suppressed_events: exec.suppressed_events(),
+        recorder: t.counters,
+        counters: bus.counters,
+    })
+}
+
+fn record_truth(tap: &mut RecorderTap, frame: u64, now: u64, truth: &TruthProbe) {
+    let g = truth.get();
+    let half = 0.5 * g.yaw;
+    let msg = PoseInFrame {
+        timestamp: tap.time(g.time_ns),
+        frame_id: "world",
+        pose: Pose {
+            position: [g.x, g.y, g.z].into(),
+            orientation: Quaternion::wxyz([half.cos(), 0.0, 0.0, half.sin()]),
+        },
+    };
+    tap.emit(Topic::GroundTruth, frame, now, g.time_ns, |w| {
+        serde_json::to_writer(w, &msg)
+    });
+}
+
+fn record_telemetry<P, C>(
+    tap: &mut RecorderTap,
+    exec: &Executive<'_, Bus, P, C>,
+    frame: u64,
+    now: u64,
+) where
+    P: speleo_scheduler::Platform,
+    C: FrameClock,
+{
+    #[derive(Serialize)]
+    struct TaskJson<'a> {
+        name: &'a str,
+        runs: u64,
+        overruns: u64,
+        skipped: u64,
+        max_us: f64,
+        p50_us: f64,
+        p99_us: f64,
+        p999_us: f64,
+    }
+    #[derive(Serialize)]
+    struct Telemetry<S> {
+        timestamp: Time,
+        frames: u64,
+        slips: u64,
+        mode: &'static str,
+        tasks: S,
+    }
+    let msg =
+        Telemetry {
+            timestamp: tap.time(now),
+            frames: exec.frames_run(),
+            slips: exec.slips(),
+            mode: mode_name(exec.mode()),
+            tasks: SeqOf::new(exec.schedule().tasks().iter().zip(exec.stats()).map(
+                |(spec, st)| TaskJson {
+                    name: spec.name.as_str(),
+                    runs: st.runs,
+                    overruns: st.overruns,
+                    skipped: st.skipped,
+                    max_us: st.max_us(),
+                    p50_us: st.p50_us(),
+                    p99_us: st.p99_us(),
+                    p999_us: st.p999_us(),
+                },
+            )),
+        };
+    tap.emit(Topic::Scheduler, frame, now, now, |w| {
+        serde_json::to_writer(w, &msg)
+    });
+}
+
+/// The summary record written at the end of a recording.
+pub fn summary_metadata(r: &MissionResult) -> BTreeMap<String, String> {
+    let mut m = BTreeMap::new();
+    m.insert("frames".into(), r.frames.to_string());
+    m.insert("output_hash".into(), format!("{:016x}", r.output_hash));
+    m.insert("mode_at_end".into(), mode_name(r.mode).into());
+    m
+}

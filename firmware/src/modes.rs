@@ -1,0 +1,338 @@
+//! The three modes: sim, replay and run.
+
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use speleo_hal::replay::ReplayHardware;
+use speleo_hal::sim::{RoverParams, SimHardware, SimParams};
+use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
+use speleo_scheduler::{Enforcement, VirtualClock};
+
+use crate::cli::{Outputs, ReplayArgs, RunArgs, SimArgs};
+use crate::config::Config;
+use crate::mission::{self, Length, MissionInputs, MissionResult};
+use crate::record::compare::Comparer;
+use crate::record::writer::{self, WriterHandle, WriterOptions};
+use crate::record::{read, RecorderTap};
+use crate::report::{self, ReplayReport};
+use crate::schedule_table;
+
+type Error = Box<dyn std::error::Error>;
+
+fn progress_bar(enabled: bool, total: Option<u64>) -> ProgressBar {
+    if !enabled {
+        return ProgressBar::hidden();
+    }
+    let bar = match total {
+        Some(n) => ProgressBar::new(n),
+        None => ProgressBar::new_spinner(),
+    };
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames ({per_sec})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
+fn run_metadata(cfg: &Config, mode: &str, epoch_ns: u64) -> BTreeMap<String, String> {
+    let mut m = BTreeMap::new();
+    m.insert("config".into(), cfg.to_toml());
+    m.insert("mode".into(), mode.into());
+    m.insert("epoch_ns".into(), epoch_ns.to_string());
+    m.insert(
+        "minor_frame_us".into(),
+        cfg.executive.minor_frame_us.to_string(),
+    );
+    m.insert("speleo_version".into(), env!("CARGO_PKG_VERSION").into());
+    m
+}
+
+fn start_writer(
+    out: &Outputs,
+    cfg: &Config,
+    meta: BTreeMap<String, String>,
+) -> Result<Option<WriterHandle>, Error> {
+    let Some(path) = &out.record else {
+        return Ok(None);
+    };
+    Ok(Some(writer::spawn(WriterOptions {
+        path: path.clone(),
+        zstd: cfg.record.compression == "zstd",
+        chunk_size: cfg.record.chunk_size_kib as u64 * 1024,
+        pool: cfg.record.pool_messages as usize,
+        run_metadata: meta,
+    })?))
+}
+
+/// Close the recording and wait for the writer to finish the file.
+fn finish_writer(
+    tap: &RefCell<RecorderTap>,
+    handle: Option<std::thread::JoinHandle<Result<writer::WriterStats, String>>>,
+    result: &MissionResult,
+) -> Result<(), Error> {
+    tap.borrow_mut().finish(mission::summary_metadata(result));
+    if let Some(h) = handle {
+        match h.join() {
+            Ok(Ok(stats)) => tracing::debug!(
+                messages = stats.messages,
+                bytes = stats.bytes,
+                "recording closed"
+            ),
+            Ok(Err(e)) => return Err(format!("recording failed: {e}").into()),
+            Err(_) => return Err("the recording thread panicked".into()),
+        }
+    }
+    Ok(())
+}
+
+fn print_summary(r: &MissionResult) {
+    let speed = if r.wall_time_s > 0.0 {
+        r.sim_time_s / r.wall_time_s
+    } else {
+        0.0
+    };
+    eprintln!(
+        "{} frames, {:.1} s simulated in {:.2} s ({speed:.0}x real time), output hash {:016x}, {} allocations after start-up",
+        r.frames, r.sim_time_s, r.wall_time_s, r.output_hash, r.allocations_after_init
+    );
+}
+
+fn write_report(
+    path: Option<&Path>,
+    mode: &str,
+    r: &MissionResult,
+    replay: Option<ReplayReport>,
+) -> Result<(), Error> {
+    if let Some(p) = path {
+        report::write(p, &report::build(mode, r, replay))?;
+    }
+    Ok(())
+}
+
+pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
+    let mut cfg = match &a.config {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    };
+    if let Some(s) = a.seed {
+        cfg.sim.seed = s;
+    }
+    if let Some(d) = a.duration {
+        cfg.sim.duration_s = d;
+    }
+    if let Some(w) = &a.world {
+        cfg.sim.world = w.clone();
+    }
+    cfg.validate()?;
+    let schedule = schedule_table::build(&cfg)?;
+    let frames = (cfg.sim.duration_s * 1e6 / cfg.executive.minor_frame_us as f64).round() as u64;
+    let params = SimParams {
+        seed: cfg.sim.seed,
+        rover: RoverParams {
+            wheel_radius_m: cfg.rover.wheel_radius_m,
+            track_width_m: cfg.rover.track_width_m,
+            skid_factor: cfg.rover.skid_factor,
+            max_wheel_speed: cfg.rover.max_wheel_speed,
+            ..RoverParams::default()
+        },
+        ..SimParams::default()
+    };
+    let mut hw = SimHardware::new(&params);
+    let truth = hw.truth_probe();
+    let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
+    let mut meta = run_metadata(&cfg, "sim", epoch_ns);
+    meta.insert("seed".into(), cfg.sim.seed.to_string());
+    meta.insert("world".into(), cfg.sim.world.clone());
+    let handle = start_writer(&a.out, &cfg, meta)?;
+    let (tap, thread) = match handle {
+        Some(h) => (
+            RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, true),
+            Some(h.thread),
+        ),
+        None => (RecorderTap::new(epoch_ns, None), None),
+    };
+    let tap = RefCell::new(tap);
+    let bar = progress_bar(progress, Some(frames));
+    let on_progress = |done: u64, _total: Option<u64>| bar.set_position(done);
+    let stop = AtomicBool::new(false);
+    let enforcement = if cfg.executive.enforce_policies_in_sim {
+        Enforcement::Enforce
+    } else {
+        Enforcement::CountOnly
+    };
+    let result = mission::run(
+        MissionInputs {
+            cfg: &cfg,
+            schedule,
+            length: Length::Frames(frames),
+            enforcement,
+            truth: Some(truth),
+            stop: &stop,
+            progress: Some(&on_progress),
+        },
+        &mut hw,
+        &tap,
+        VirtualClock::new(cfg.executive.minor_frame_us),
+    )?;
+    bar.finish_and_clear();
+    finish_writer(&tap, thread, &result)?;
+    write_report(a.out.report.as_deref(), "sim", &result, None)?;
+    print_summary(&result);
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
+    let rec = read::load(&a.log)?;
+    let cfg_text = rec
+        .run
+        .get("config")
+        .ok_or_else(|| format!("{}: the recording holds no configuration", a.log.display()))?;
+    let cfg = Config::from_toml(cfg_text)
+        .map_err(|e| format!("{}: recorded configuration: {e}", a.log.display()))?;
+    let schedule = schedule_table::build(&cfg)?;
+    let Some(last) = rec.last_complete_frame() else {
+        return Err(format!("{}: no complete frame to replay", a.log.display()).into());
+    };
+    if let Some(why) = &rec.truncated {
+        eprintln!(
+            "note: {} ends early ({why}); replaying frames 0 to {last}",
+            a.log.display()
+        );
+    }
+    let epoch_ns = rec.epoch_ns();
+    let truncated = rec.truncated.is_some();
+    let mut meta = run_metadata(&cfg, "replay", epoch_ns);
+    meta.insert("source".into(), a.log.display().to_string());
+    let handle = start_writer(&a.out, &cfg, meta)?;
+    let comparer = Comparer::new(rec.expected, last);
+    let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
+    let (tap, thread) = match handle {
+        Some(h) => (
+            RecorderTap::new(epoch_ns, Some(comparer)).with_writer(h.tx, h.pool, true),
+            Some(h.thread),
+        ),
+        None => (RecorderTap::new(epoch_ns, Some(comparer)), None),
+    };
+    let tap = RefCell::new(tap);
+    let frames = last + 1;
+    let bar = progress_bar(progress, Some(frames));
+    let on_progress = |done: u64, _total: Option<u64>| bar.set_position(done);
+    let stop = AtomicBool::new(false);
+    let enforcement = if cfg.executive.enforce_policies_in_sim {
+        Enforcement::Enforce
+    } else {
+        Enforcement::CountOnly
+    };
+    let result = mission::run(
+        MissionInputs {
+            cfg: &cfg,
+            schedule,
+            length: Length::Frames(frames),
+            enforcement,
+            truth: None,
+            stop: &stop,
+            progress: Some(&on_progress),
+        },
+        &mut hw,
+        &tap,
+        VirtualClock::new(cfg.executive.minor_frame_us),
+    )?;
+    bar.finish_and_clear();
+    finish_writer(&tap, thread, &result)?;
+    let (divergence, compared) = {
+        let t = tap.borrow();
+        let c = t.comparer();
+        (c.and_then(|c| c.describe()), c.map_or(0, |c| c.compared))
+    };
+    write_report(
+        a.out.report.as_deref(),
+        "replay",
+        &result,
+        Some(ReplayReport {
+            identical: divergence.is_none(),
+            compared_messages: compared,
+            last_frame_compared: last,
+            recording_truncated: truncated,
+            divergence: divergence.clone(),
+        }),
+    )?;
+    match divergence {
+        None => {
+            println!("identical");
+            tracing::info!(frames, compared, "every output matches the recording");
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(d) => {
+            println!("{d}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
+    let cfg = Config::load(&a.config)?;
+    let schedule = schedule_table::build(&cfg)?;
+    let mut hw = speleo_hal::real::RealHardware::open(&speleo_hal::real::DeviceSettings {
+        lidar_bind: cfg.devices.lidar_bind.clone(),
+        lidar_sensor: cfg.devices.lidar_sensor.clone(),
+        imu_port: cfg.devices.imu_port.clone(),
+        imu_baud: cfg.devices.imu_baud,
+        can_interface: cfg.devices.can_interface.clone(),
+    })?;
+    let rt = setup_realtime(cfg.executive.realtime_priority);
+    tracing::info!("real-time setup: {rt}");
+    let epoch_ns = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0);
+    let handle = start_writer(&a.out, &cfg, run_metadata(&cfg, "run", epoch_ns))?;
+    let (tap, thread) = match handle {
+        // Real time: the frame never waits for the disk; drops are counted.
+        Some(h) => (
+            RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, false),
+            Some(h.thread),
+        ),
+        None => (RecorderTap::new(epoch_ns, None), None),
+    };
+    let tap = RefCell::new(tap);
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(sig, Arc::clone(&stop))?;
+    }
+    let length = match a.duration {
+        Some(d) => Length::Frames((d * 1e6 / cfg.executive.minor_frame_us as f64).round() as u64),
+        None => Length::UntilStopped,
+    };
+    let total = match length {
+        Length::Frames(n) => Some(n),
+        Length::UntilStopped => None,
+    };
+    let bar = progress_bar(progress, total);
+    let on_progress = |done: u64, _total: Option<u64>| bar.set_position(done);
+    let result = mission::run(
+        MissionInputs {
+            cfg: &cfg,
+            schedule,
+            length,
+            enforcement: Enforcement::Enforce,
+            truth: None,
+            stop: &stop,
+            progress: Some(&on_progress),
+        },
+        &mut hw,
+        &tap,
+        MonotonicClock::new(cfg.executive.minor_frame_us),
+    )?;
+    bar.finish_and_clear();
+    finish_writer(&tap, thread, &result)?;
+    write_report(a.out.report.as_deref(), "run", &result, None)?;
+    print_summary(&result);
+    Ok(ExitCode::SUCCESS)
+}

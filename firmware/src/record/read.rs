@@ -1,0 +1,196 @@
+//! Loading a recording for replay. A file whose writer was killed has no
+//! summary and ends inside a record: everything up to the last complete chunk
+//! is used. A file that is damaged (a bad chunk CRC, a malformed record) is
+//! refused with the place where it broke.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use base64::Engine;
+use enumset::enum_set;
+use speleo_hal::replay::RecordedInput;
+use speleo_hal::Device;
+use thiserror::Error;
+
+use super::compare::ExpectedMessage;
+use super::topics::{Role, Topic};
+
+#[derive(Debug, Error)]
+pub enum ReadError {
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{path} is not an MCAP recording: {why}")]
+    NotMcap { path: String, why: String },
+    #[error("{path} is damaged after {messages} messages: {why}")]
+    Damaged {
+        path: String,
+        messages: u64,
+        why: String,
+    },
+    #[error("{path}: message {sequence} on {topic} is malformed: {why}")]
+    BadMessage {
+        path: String,
+        topic: &'static str,
+        sequence: u32,
+        why: String,
+    },
+    #[error("{path} was not written by speleo (no speleo.run metadata)")]
+    NotSpeleo { path: String },
+}
+
+pub struct Recording {
+    /// The `speleo.run` metadata: config, mode, epoch.
+    pub run: BTreeMap<String, String>,
+    /// The `speleo.summary` metadata, present when the run ended normally.
+    pub summary: Option<BTreeMap<String, String>>,
+    pub inputs: Vec<RecordedInput>,
+    /// Outputs by topic (index = `Topic as usize`).
+    pub expected: Vec<Vec<ExpectedMessage>>,
+    pub messages: u64,
+    /// Highest frame number seen in any message.
+    pub max_frame: Option<u64>,
+    /// Why reading stopped early (a killed writer), if it did.
+    pub truncated: Option<String>,
+}
+
+impl Recording {
+    pub fn epoch_ns(&self) -> u64 {
+        self.run
+            .get("epoch_ns")
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0)
+    }
+
+    /// Frames the recorded run executed, when it ended normally.
+    pub fn frames(&self) -> Option<u64> {
+        self.summary
+            .as_ref()
+            .and_then(|s| s.get("frames"))
+            .and_then(|s| s.parse().ok())
+    }
+
+    /// The last frame whose messages are all in the file.
+    pub fn last_complete_frame(&self) -> Option<u64> {
+        match self.frames() {
+            Some(n) => n.checked_sub(1),
+            // The last frame seen may be cut by the lost chunk.
+            None => self.max_frame.and_then(|f| f.checked_sub(1)),
+        }
+    }
+}
+
+#[derive(serde::Deserialize)]
+struct RawJson {
+    device: String,
+    data: String,
+}
+
+pub fn load(path: &Path) -> Result<Recording, ReadError> {
+    let p = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| ReadError::Io {
+        path: p.clone(),
+        source,
+    })?;
+    if bytes.len() < 8 || &bytes[..8] != mcap::MAGIC {
+        return Err(ReadError::NotMcap {
+            path: p,
+            why: "it does not start with the MCAP magic".into(),
+        });
+    }
+    let options =
+        enum_set!(mcap::read::Options::IgnoreEndMagic | mcap::read::Options::ValidateChunkCrcs);
+    let records = mcap::read::ChunkFlattener::new_with_options(&bytes, options).map_err(|e| {
+        ReadError::NotMcap {
+            path: p.clone(),
+            why: e.to_string(),
+        }
+    })?;
+    let mut rec = Recording {
+        run: BTreeMap::new(),
+        summary: None,
+        inputs: Vec::new(),
+        expected: vec![Vec::new(); Topic::ALL.len()],
+        messages: 0,
+        max_frame: None,
+        truncated: None,
+    };
+    let mut channels: BTreeMap<u16, Topic> = BTreeMap::new();
+    let epoch = |run: &BTreeMap<String, String>| -> u64 {
+        run.get("epoch_ns")
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0)
+    };
+    for r in records {
+        let r = match r {
+            Ok(r) => r,
+            Err(mcap::McapError::UnexpectedEof) => {
+                rec.truncated = Some("the file ends inside a record (writer killed?)".into());
+                break;
+            }
+            Err(e) => {
+                return Err(ReadError::Damaged {
+                    path: p,
+                    messages: rec.messages,
+                    why: e.to_string(),
+                })
+            }
+        };
+        match r {
+            mcap::records::Record::Channel(c) => {
+                if let Some(t) = Topic::by_name(&c.topic) {
+                    channels.insert(c.id, t);
+                }
+            }
+            mcap::records::Record::Metadata(m) if m.name == "speleo.run" => rec.run = m.metadata,
+            mcap::records::Record::Metadata(m) if m.name == "speleo.summary" => {
+                rec.summary = Some(m.metadata)
+            }
+            mcap::records::Record::Message { header, data } => {
+                rec.messages += 1;
+                let Some(&topic) = channels.get(&header.channel_id) else {
+                    continue;
+                };
+                let frame = header.sequence as u64;
+                rec.max_frame = Some(rec.max_frame.map_or(frame, |m| m.max(frame)));
+                let info = topic.info();
+                match info.role {
+                    Role::Output => rec.expected[topic as usize].push(ExpectedMessage {
+                        frame,
+                        data: data.into_owned(),
+                    }),
+                    Role::Input => {
+                        let bad = |why: String| ReadError::BadMessage {
+                            path: p.clone(),
+                            topic: info.name,
+                            sequence: header.sequence,
+                            why,
+                        };
+                        let raw: RawJson =
+                            serde_json::from_slice(&data).map_err(|e| bad(e.to_string()))?;
+                        let device = Device::from_name(&raw.device)
+                            .ok_or_else(|| bad(format!("unknown device \"{}\"", raw.device)))?;
+                        let bytes = base64::engine::general_purpose::STANDARD
+                            .decode(raw.data.as_bytes())
+                            .map_err(|e| bad(format!("data is not base64: {e}")))?;
+                        rec.inputs.push(RecordedInput {
+                            frame,
+                            device,
+                            receive_time_ns: header.publish_time.saturating_sub(epoch(&rec.run)),
+                            bytes,
+                        });
+                    }
+                    Role::Telemetry | Role::Sim => {}
+                }
+            }
+            _ => {}
+        }
+    }
+    if rec.run.is_empty() {
+        return Err(ReadError::NotSpeleo { path: p });
+    }
+    Ok(rec)
+}

@@ -1,0 +1,226 @@
+//! The recorder's tap: serialises each message into a pooled buffer, folds
+//! outputs into the run's output hash, compares them with a recording during
+//! replay, and hands the buffer to the writer thread.
+
+use std::collections::BTreeMap;
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
+
+use base64::Engine;
+use xxhash_rust::xxh3::Xxh3Default;
+
+use super::compare::Comparer;
+use super::encode::{Base64, Bounded, RawInput, Time};
+use super::topics::{Role, Topic};
+use super::writer::{Outgoing, WriterMsg, MESSAGE_CAPACITY};
+
+/// Longest raw input recorded (an HDL-32E packet is 1206 bytes; a serial read
+/// is bounded by the driver's buffer).
+pub const MAX_RAW_INPUT: usize = 4096;
+
+struct TapWriter {
+    tx: SyncSender<WriterMsg>,
+    pool: Receiver<Vec<u8>>,
+    /// Wait for a free buffer (virtual time: nothing is ever dropped) or drop
+    /// and count (real time: the frame must not wait for the disk).
+    blocking: bool,
+}
+
+/// Counters of the recorder.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TapCounters {
+    /// Output messages produced (all hashed).
+    pub outputs: u64,
+    /// Messages handed to the writer.
+    pub written: u64,
+    /// Messages not written because no buffer was free (real time only).
+    pub dropped_no_buffer: u64,
+    /// Messages larger than a buffer: not written and not hashed.
+    pub too_large: u64,
+    /// The writer thread ended early (disk full, I/O error).
+    pub writer_gone: bool,
+}
+
+pub struct RecorderTap {
+    epoch_ns: u64,
+    writer: Option<TapWriter>,
+    local: Vec<u8>,
+    /// A pooled buffer kept back after a refused message.
+    spare: Option<Vec<u8>>,
+    base64: Vec<u8>,
+    hasher: Xxh3Default,
+    pub counters: TapCounters,
+    compare: Option<Comparer>,
+}
+
+impl RecorderTap {
+    /// `epoch_ns` is added to every time so recordings carry Unix times.
+    pub fn new(epoch_ns: u64, compare: Option<Comparer>) -> Self {
+        RecorderTap {
+            epoch_ns,
+            writer: None,
+            local: Vec::with_capacity(MESSAGE_CAPACITY),
+            spare: None,
+            base64: vec![0; MAX_RAW_INPUT.div_ceil(3) * 4],
+            hasher: Xxh3Default::new(),
+            counters: TapCounters::default(),
+            compare,
+        }
+    }
+
+    pub fn with_writer(
+        mut self,
+        tx: SyncSender<WriterMsg>,
+        pool: Receiver<Vec<u8>>,
+        blocking: bool,
+    ) -> Self {
+        self.writer = Some(TapWriter { tx, pool, blocking });
+        self
+    }
+
+    pub fn epoch_ns(&self) -> u64 {
+        self.epoch_ns
+    }
+
+    /// A time relative to start as a Foxglove time.
+    pub fn time(&self, ns: u64) -> Time {
+        Time::from_ns(self.epoch_ns + ns)
+    }
+
+    /// Record one message. `log_ns` is the frame time, `publish_ns` the time
+    /// of validity of the data, both relative to start; `body` writes the JSON.
+    pub fn emit(
+        &mut self,
+        topic: Topic,
+        frame: u64,
+        log_ns: u64,
+        publish_ns: u64,
+        body: impl FnOnce(&mut Bounded<'_>) -> serde_json::Result<()>,
+    ) {
+        let (mut buf, pooled) = self.take_buffer();
+        buf.clear();
+        if body(&mut Bounded(&mut buf)).is_err() {
+            self.counters.too_large += 1;
+            self.put_back(buf, pooled);
+            return;
+        }
+        let log_time = self.epoch_ns + log_ns;
+        let publish_time = self.epoch_ns + publish_ns;
+        if topic.info().role == Role::Output {
+            self.counters.outputs += 1;
+            self.hasher.update(&topic.channel_id().to_le_bytes());
+            self.hasher.update(&frame.to_le_bytes());
+            self.hasher.update(&log_time.to_le_bytes());
+            self.hasher.update(&publish_time.to_le_bytes());
+            self.hasher.update(&(buf.len() as u64).to_le_bytes());
+            self.hasher.update(&buf);
+            if let Some(c) = self.compare.as_mut() {
+                c.check(topic, frame, &buf);
+            }
+        }
+        if !pooled {
+            self.local = buf;
+            return;
+        }
+        let m = Outgoing {
+            topic,
+            sequence: frame as u32,
+            log_time,
+            publish_time,
+            buf,
+        };
+        if let Some(w) = self.writer.as_ref() {
+            match w.tx.send(WriterMsg::Message(m)) {
+                Ok(()) => self.counters.written += 1,
+                Err(_) => self.counters.writer_gone = true,
+            }
+        }
+    }
+
+    /// Record one raw input, its bytes as base64.
+    pub fn raw(
+        &mut self,
+        topic: Topic,
+        device: &'static str,
+        frame: u64,
+        frame_ns: u64,
+        receive_ns: u64,
+        bytes: &[u8],
+    ) {
+        let mut scratch = std::mem::take(&mut self.base64);
+        let n = base64::engine::general_purpose::STANDARD
+            .encode_slice(bytes, &mut scratch[..])
+            .unwrap_or(usize::MAX);
+        if n == usize::MAX {
+            self.counters.too_large += 1;
+        } else {
+            let text = std::str::from_utf8(&scratch[..n]).unwrap_or("");
+            let msg = RawInput {
+                receive_time: self.time(receive_ns),
+                device,
+                data: Base64(text),
+            };
+            self.emit(topic, frame, frame_ns, receive_ns, |w| {
+                serde_json::to_writer(w, &msg)
+            });
+        }
+        self.base64 = scratch;
+    }
+
+    /// A buffer for the next message, and whether it goes to the writer.
+    fn take_buffer(&mut self) -> (Vec<u8>, bool) {
+        if let Some(b) = self.spare.take() {
+            return (b, true);
+        }
+        let got = match self.writer.as_ref() {
+            Some(w) if !self.counters.writer_gone => {
+                if w.blocking {
+                    w.pool.recv().ok()
+                } else {
+                    match w.pool.try_recv() {
+                        Ok(b) => Some(b),
+                        Err(TryRecvError::Empty) => {
+                            self.counters.dropped_no_buffer += 1;
+                            None
+                        }
+                        Err(TryRecvError::Disconnected) => None,
+                    }
+                }
+            }
+            _ => None,
+        };
+        match got {
+            Some(b) => (b, true),
+            // Not recorded, but still hashed and compared.
+            None => (std::mem::take(&mut self.local), false),
+        }
+    }
+
+    fn put_back(&mut self, buf: Vec<u8>, pooled: bool) {
+        if pooled {
+            self.spare = Some(buf);
+        } else {
+            self.local = buf;
+        }
+    }
+
+    /// Hash over every output message so far, in order.
+    pub fn output_hash(&self) -> u64 {
+        self.hasher.digest()
+    }
+
+    pub fn comparer(&self) -> Option<&Comparer> {
+        self.compare.as_ref()
+    }
+
+    pub fn comparer_mut(&mut self) -> Option<&mut Comparer> {
+        self.compare.as_mut()
+    }
+
+    /// Close the recording with a summary record; the writer thread then
+    /// finishes the file and ends.
+    pub fn finish(&mut self, summary: BTreeMap<String, String>) {
+        if let Some(w) = self.writer.take() {
+            let _ = w.tx.send(WriterMsg::Finish(summary));
+        }
+    }
+}

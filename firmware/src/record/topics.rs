@@ -1,0 +1,171 @@
+//! Every recorded topic, its schema and its role. Channel ids are fixed by
+//! this table, so recordings of the same software always agree.
+
+/// What a topic carries, which decides how replay treats it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// Raw hardware input, fed back by replay.
+    Input,
+    /// A task output: hashed, and compared field by field in replay.
+    Output,
+    /// Measured execution times: depends on the machine, never compared.
+    Telemetry,
+    /// Simulation ground truth: never visible to on-board tasks, not compared.
+    Sim,
+}
+
+impl Role {
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            Role::Input => "input",
+            Role::Output => "output",
+            Role::Telemetry => "telemetry",
+            Role::Sim => "sim",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Topic {
+    RawLidar,
+    RawImu,
+    RawCan,
+    CanTx,
+    Imu,
+    Drives,
+    Odom,
+    Tf,
+    WheelCommand,
+    Plan,
+    Health,
+    Scheduler,
+    GroundTruth,
+}
+
+pub struct TopicInfo {
+    pub topic: Topic,
+    pub name: &'static str,
+    pub schema: &'static str,
+    pub schema_json: &'static str,
+    pub role: Role,
+}
+
+impl Topic {
+    pub const ALL: [Topic; 13] = [
+        Topic::RawLidar,
+        Topic::RawImu,
+        Topic::RawCan,
+        Topic::CanTx,
+        Topic::Imu,
+        Topic::Drives,
+        Topic::Odom,
+        Topic::Tf,
+        Topic::WheelCommand,
+        Topic::Plan,
+        Topic::Health,
+        Topic::Scheduler,
+        Topic::GroundTruth,
+    ];
+
+    /// MCAP channel id.
+    pub fn channel_id(self) -> u16 {
+        self as u16 + 1
+    }
+
+    pub fn from_channel_id(id: u16) -> Option<Topic> {
+        Topic::ALL.get((id as usize).checked_sub(1)?).copied()
+    }
+
+    pub fn info(self) -> TopicInfo {
+        let (name, schema, schema_json, role) = match self {
+            Topic::RawLidar => ("/raw/lidar", "speleo.RawInput", RAW_INPUT, Role::Input),
+            Topic::RawImu => ("/raw/imu", "speleo.RawInput", RAW_INPUT, Role::Input),
+            Topic::RawCan => ("/raw/can", "speleo.RawInput", RAW_INPUT, Role::Input),
+            Topic::CanTx => ("/can/tx", "speleo.CanFrames", CAN_FRAMES, Role::Output),
+            Topic::Imu => ("/imu", "speleo.ImuSample", IMU_SAMPLE, Role::Output),
+            Topic::Drives => (
+                "/drives",
+                "speleo.DriveFeedback",
+                DRIVE_FEEDBACK,
+                Role::Output,
+            ),
+            Topic::Odom => ("/odom", "foxglove.PoseInFrame", POSE_IN_FRAME, Role::Output),
+            Topic::Tf => (
+                "/tf",
+                "foxglove.FrameTransform",
+                FRAME_TRANSFORM,
+                Role::Output,
+            ),
+            Topic::WheelCommand => (
+                "/cmd/wheels",
+                "speleo.WheelCommand",
+                WHEEL_COMMAND,
+                Role::Output,
+            ),
+            Topic::Plan => ("/plan", "foxglove.SceneUpdate", SCENE_UPDATE, Role::Output),
+            Topic::Health => ("/health", "speleo.Health", HEALTH, Role::Output),
+            Topic::Scheduler => (
+                "/scheduler",
+                "speleo.SchedulerTelemetry",
+                SCHEDULER,
+                Role::Telemetry,
+            ),
+            Topic::GroundTruth => (
+                "/sim/ground_truth",
+                "foxglove.PoseInFrame",
+                POSE_IN_FRAME,
+                Role::Sim,
+            ),
+        };
+        TopicInfo {
+            topic: self,
+            name,
+            schema,
+            schema_json,
+            role,
+        }
+    }
+
+    pub fn by_name(name: &str) -> Option<Topic> {
+        Topic::ALL.into_iter().find(|t| t.info().name == name)
+    }
+}
+
+// Foxglove's JSON schemas (the subset of fields we write is the whole schema
+// for these messages), and our own in the same style.
+
+const POSE_IN_FRAME: &str = r#"{"title":"foxglove.PoseInFrame","description":"A timestamped pose for an object or reference frame in 3D space","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"frame_id":{"type":"string"},"pose":{"title":"foxglove.Pose","type":"object","properties":{"position":{"title":"foxglove.Vector3","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"orientation":{"title":"foxglove.Quaternion","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}}}}}"#;
+
+const FRAME_TRANSFORM: &str = r#"{"title":"foxglove.FrameTransform","description":"A transform between two reference frames in 3D space","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"parent_frame_id":{"type":"string"},"child_frame_id":{"type":"string"},"translation":{"title":"foxglove.Vector3","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"rotation":{"title":"foxglove.Quaternion","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}}}"#;
+
+const SCENE_UPDATE: &str = r#"{"title":"foxglove.SceneUpdate","description":"An update to the entities displayed in a 3D scene","type":"object","properties":{"deletions":{"type":"array","items":{"type":"object"}},"entities":{"type":"array","items":{"title":"foxglove.SceneEntity","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"frame_id":{"type":"string"},"id":{"type":"string"},"lifetime":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frame_locked":{"type":"boolean"},"metadata":{"type":"array","items":{"type":"object"}},"arrows":{"type":"array"},"cubes":{"type":"array"},"spheres":{"type":"array"},"cylinders":{"type":"array"},"lines":{"type":"array","items":{"title":"foxglove.LinePrimitive","type":"object","properties":{"type":{"type":"integer","description":"0 LINE_STRIP, 1 LINE_LOOP, 2 LINE_LIST"},"pose":{"type":"object"},"thickness":{"type":"number"},"scale_invariant":{"type":"boolean"},"points":{"type":"array","items":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}}},"color":{"type":"object","properties":{"r":{"type":"number"},"g":{"type":"number"},"b":{"type":"number"},"a":{"type":"number"}}},"colors":{"type":"array"},"indices":{"type":"array"}}}},"triangles":{"type":"array"},"texts":{"type":"array"},"models":{"type":"array"}}}}}}"#;
+
+const RAW_INPUT: &str = r#"{"title":"speleo.RawInput","description":"Bytes exactly as received from a device","type":"object","properties":{"receive_time":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"device":{"type":"string","enum":["lidar","imu","can"]},"data":{"type":"string","contentEncoding":"base64","description":"lidar: one UDP payload; imu: a serial read; can: one SocketCAN struct can_frame (16 bytes)"}}}"#;
+
+const CAN_FRAMES: &str = r#"{"title":"speleo.CanFrames","description":"CAN frames queued for the bus in this frame (sent at the start of the next)","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frames":{"type":"array","items":{"type":"object","properties":{"id":{"type":"integer"},"data":{"type":"array","items":{"type":"integer"}}}}}}}"#;
+
+const IMU_SAMPLE: &str = r#"{"title":"speleo.ImuSample","description":"One decoded Xsens MTData2 sample","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"packet_counter":{"type":"integer"},"sample_time_fine":{"type":"integer","description":"10 kHz ticks"},"orientation":{"title":"foxglove.Quaternion","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}},"acceleration":{"title":"foxglove.Vector3","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"rate_of_turn":{"title":"foxglove.Vector3","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"status_word":{"type":"integer"}}}"#;
+
+const DRIVE_FEEDBACK: &str = r#"{"title":"speleo.DriveFeedback","description":"CiA 402 feedback of the four wheel drives (front left, front right, rear left, rear right)","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"wheels":{"type":"array","items":{"type":"object","properties":{"state":{"type":"string"},"statusword":{"type":"integer"},"velocity_rad_s":{"type":"number"},"position_counts":{"type":"integer"}}}}}}"#;
+
+const WHEEL_COMMAND: &str = r#"{"title":"speleo.WheelCommand","description":"Body command and wheel speeds from the path follower","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"speed":{"type":"number"},"yaw_rate":{"type":"number"},"wheel_speeds":{"type":"array","items":{"type":"number"}},"segment":{"type":"integer"},"done":{"type":"boolean"}}}"#;
+
+const HEALTH: &str = r#"{"title":"speleo.Health","description":"Device freshness and decoder counters","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"mode":{"type":"string"},"stale":{"type":"array","items":{"type":"string"}},"drive_faults":{"type":"integer"},"counters":{"type":"object","additionalProperties":{"type":"integer"}}}}"#;
+
+const SCHEDULER: &str = r#"{"title":"speleo.SchedulerTelemetry","description":"Execution-time statistics per task, measured on the monotonic clock","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frames":{"type":"integer"},"slips":{"type":"integer"},"mode":{"type":"string"},"tasks":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"runs":{"type":"integer"},"overruns":{"type":"integer"},"max_us":{"type":"number"},"p50_us":{"type":"number"},"p99_us":{"type":"number"},"p999_us":{"type":"number"}}}}}}"#;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_schema_is_json_and_ids_round_trip() {
+        for t in Topic::ALL {
+            let i = t.info();
+            let v: serde_json::Value = serde_json::from_str(i.schema_json).expect(i.name);
+            assert_eq!(v["title"], i.schema, "{}", i.name);
+            assert_eq!(Topic::from_channel_id(t.channel_id()), Some(t));
+            assert_eq!(Topic::by_name(i.name), Some(t));
+        }
+    }
+}

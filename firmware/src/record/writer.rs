@@ -1,0 +1,157 @@
+//! The MCAP writer thread.
+//!
+//! The executive never touches the file: the recorder task serialises each
+//! message into a buffer taken from a pool allocated at start-up and hands it
+//! to this thread, which writes it and returns the buffer. Compression and
+//! file I/O therefore cost the frame nothing and allocate nothing on the
+//! executive's thread. Chunks go straight to the file when they close, so a
+//! killed process loses at most the open chunk.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::thread::JoinHandle;
+
+use super::topics::Topic;
+
+/// Capacity of one pooled message buffer.
+pub const MESSAGE_CAPACITY: usize = 16 * 1024;
+
+pub struct Outgoing {
+    pub topic: Topic,
+    pub sequence: u32,
+    pub log_time: u64,
+    pub publish_time: u64,
+    pub buf: Vec<u8>,
+}
+
+pub enum WriterMsg {
+    Message(Outgoing),
+    /// Write a metadata record (e.g. the run summary) and finish the file.
+    Finish(BTreeMap<String, String>),
+}
+
+#[derive(Clone, Debug)]
+pub struct WriterOptions {
+    pub path: PathBuf,
+    pub zstd: bool,
+    pub chunk_size: u64,
+    pub pool: usize,
+    /// Written as the `speleo.run` metadata record before any message.
+    pub run_metadata: BTreeMap<String, String>,
+}
+
+/// What the writer thread reports when it ends.
+#[derive(Clone, Debug, Default)]
+pub struct WriterStats {
+    pub messages: u64,
+    pub bytes: u64,
+}
+
+pub struct WriterHandle {
+    pub tx: SyncSender<WriterMsg>,
+    pub pool: Receiver<Vec<u8>>,
+    pub thread: JoinHandle<Result<WriterStats, String>>,
+}
+
+fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
+    let file = File::create(&opts.path)
+        .map_err(|e| format!("cannot create {}: {e}", opts.path.display()))?;
+    let mut w = mcap::WriteOptions::new()
+        .profile("")
+        .library(concat!("speleo ", env!("CARGO_PKG_VERSION")))
+        .compression(opts.zstd.then_some(mcap::Compression::Zstd))
+        .chunk_size(Some(opts.chunk_size))
+        .compression_threads(0)
+        .create(file)
+        .map_err(|e| format!("{}: {e}", opts.path.display()))?;
+    let mut schema_ids: BTreeMap<&str, u16> = BTreeMap::new();
+    for t in Topic::ALL {
+        let i = t.info();
+        let sid = match schema_ids.get(i.schema) {
+            Some(id) => *id,
+            None => {
+                let id = w
+                    .add_schema(i.schema, "jsonschema", i.schema_json.as_bytes())
+                    .map_err(|e| e.to_string())?;
+                schema_ids.insert(i.schema, id);
+                id
+            }
+        };
+        let mut meta = BTreeMap::new();
+        meta.insert("speleo.role".to_string(), i.role.as_str().to_string());
+        w.add_channel_with_id(t.channel_id(), sid, i.name, "json", &meta)
+            .map_err(|e| e.to_string())?;
+    }
+    w.write_metadata(&mcap::records::Metadata {
+        name: "speleo.run".into(),
+        metadata: opts.run_metadata.clone(),
+    })
+    .map_err(|e| e.to_string())?;
+    Ok(w)
+}
+
+/// Create the file and start the thread. The file is created before this
+/// returns, so a bad path is reported at start-up.
+pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
+    let mut w = open(&opts)?;
+    let (tx, rx) = sync_channel::<WriterMsg>(opts.pool);
+    let (pool_tx, pool_rx) = sync_channel::<Vec<u8>>(opts.pool);
+    for _ in 0..opts.pool {
+        let _ = pool_tx.send(Vec::with_capacity(MESSAGE_CAPACITY));
+    }
+    let path = opts.path.clone();
+    let thread = std::thread::Builder::new()
+        .name("mcap-writer".into())
+        .spawn(move || run(&mut w, &path, rx, pool_tx))
+        .map_err(|e| format!("cannot start the writer thread: {e}"))?;
+    Ok(WriterHandle {
+        tx,
+        pool: pool_rx,
+        thread,
+    })
+}
+
+fn run(
+    w: &mut mcap::Writer<File>,
+    path: &Path,
+    rx: Receiver<WriterMsg>,
+    pool_tx: SyncSender<Vec<u8>>,
+) -> Result<WriterStats, String> {
+    let err = |e: mcap::McapError| format!("{}: {e}", path.display());
+    let mut stats = WriterStats::default();
+    let mut summary = BTreeMap::new();
+    while let Ok(msg) = rx.recv() {
+        match msg {
+            WriterMsg::Message(m) => {
+                let header = mcap::records::MessageHeader {
+                    channel_id: m.topic.channel_id(),
+                    sequence: m.sequence,
+                    log_time: m.log_time,
+                    publish_time: m.publish_time,
+                };
+                w.write_to_known_channel(&header, &m.buf).map_err(err)?;
+                stats.messages += 1;
+                stats.bytes += m.buf.len() as u64;
+                // The pool has room for every buffer, so this never blocks.
+                let _ = pool_tx.try_send(m.buf);
+            }
+            WriterMsg::Finish(meta) => {
+                summary = meta;
+                break;
+            }
+        }
+    }
+    // Reached on Finish, or when the sender went away (error paths): close
+    // the file properly either way.
+    if !summary.is_empty() {
+        w.write_metadata(&mcap::records::Metadata {
+            name: "speleo.summary".into(),
+            metadata: summary,
+        })
+        .map_err(err)?;
+    }
+    w.finish().map_err(err)?;
+    Ok(stats)
+}

@@ -1,0 +1,101 @@
+//! The `--report OUT.json` contract. Later work adds keys; the ones here stay.
+
+use serde::Serialize;
+
+use crate::mission::{MissionResult, TaskFigures};
+use crate::tasks::recorder::mode_name;
+
+#[derive(Serialize)]
+pub struct Report<'a> {
+    pub mode: &'a str,
+    pub frames: u64,
+    pub sim_time_s: f64,
+    pub wall_time_s: f64,
+    /// xxh3-64 over every recorded output message, in order, as 16 hex digits.
+    pub output_hash: String,
+    pub scheduler: SchedulerReport<'a>,
+    pub recorder: RecorderReport,
+    pub counters: serde_json::Value,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub replay: Option<ReplayReport>,
+}
+
+#[derive(Serialize)]
+pub struct SchedulerReport<'a> {
+    pub minor_frame_us: u32,
+    pub slips: u64,
+    /// Heap allocations by the executive and its periodic tasks after start-up.
+    pub allocations_after_init: u64,
+    /// Allocations of logging and progress display between frames.
+    pub housekeeping_allocations: u64,
+    pub mode_at_end: &'a str,
+    pub safe_mode_cause: Option<&'a str>,
+    pub suppressed_overrun_events: u64,
+    pub tasks: &'a [TaskFigures],
+}
+
+#[derive(Serialize)]
+pub struct RecorderReport {
+    pub outputs: u64,
+    pub written: u64,
+    pub dropped_no_buffer: u64,
+    pub too_large: u64,
+    pub writer_failed: bool,
+}
+
+#[derive(Serialize)]
+pub struct ReplayReport {
+    pub identical: bool,
+    pub compared_messages: u64,
+    pub last_frame_compared: u64,
+    pub recording_truncated: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub divergence: Option<String>,
+}
+
+pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayReport>) -> Report<'a> {
+    let c = &r.counters;
+    Report {
+        mode,
+        frames: r.frames,
+        sim_time_s: r.sim_time_s,
+        wall_time_s: r.wall_time_s,
+        output_hash: format!("{:016x}", r.output_hash),
+        scheduler: SchedulerReport {
+            minor_frame_us: r.minor_frame_us,
+            slips: r.slips,
+            allocations_after_init: r.allocations_after_init,
+            housekeeping_allocations: r.housekeeping_allocations,
+            mode_at_end: mode_name(r.mode),
+            safe_mode_cause: r.safe_mode_cause.as_deref(),
+            suppressed_overrun_events: r.suppressed_events,
+            tasks: &r.tasks,
+        },
+        recorder: RecorderReport {
+            outputs: r.recorder.outputs,
+            written: r.recorder.written,
+            dropped_no_buffer: r.recorder.dropped_no_buffer,
+            too_large: r.recorder.too_large,
+            writer_failed: r.recorder.writer_gone,
+        },
+        counters: serde_json::json!({
+            "imu_frames": c.imu.frames,
+            "imu_bad_checksums": c.imu.bad_checksums,
+            "imu_skipped_bytes": c.imu.skipped_bytes,
+            "imu_bad_items": c.imu_bad_items,
+            "imu_samples_lost": c.imu_samples_lost,
+            "can_frames": c.can_frames,
+            "can_malformed": c.can_malformed,
+            "can_unmapped": c.can_unmapped,
+            "can_bad_length": c.can_bad_length,
+            "raw_dropped": c.raw_dropped,
+            "hal_errors": c.hal_errors,
+        }),
+        replay,
+    }
+}
+
+pub fn write(path: &std::path::Path, report: &Report<'_>) -> Result<(), String> {
+    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    std::fs::write(path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
+}

@@ -1,0 +1,130 @@
+//! The schedule table: which tasks exist, in which order they run within a
+//! frame, and their default rate groups, budgets and overrun policies. The
+//! configuration's `[tasks.NAME]` tables override the defaults.
+
+use speleo_scheduler::{AnytimeSpec, OverrunPolicy, RateGroup, Schedule, TaskSpec};
+
+use crate::config::{Config, ConfigError};
+
+/// Task names in execution order.
+pub const TASKS: [&str; 8] = [
+    "io",
+    "imu_driver",
+    "drive_driver",
+    "odometry",
+    "control",
+    "drive_output",
+    "health",
+    "recorder",
+];
+
+fn defaults() -> Vec<TaskSpec> {
+    use OverrunPolicy::*;
+    let every = RateGroup::EVERY_FRAME;
+    vec![
+        TaskSpec::periodic("io", every, 1_000, Skip).safe(),
+        TaskSpec::periodic("imu_driver", every, 300, Skip).safe(),
+        TaskSpec::periodic("drive_driver", every, 300, Skip).safe(),
+        TaskSpec::periodic("odometry", every, 300, ReuseLast),
+        // 50 Hz path following, in the odd frames.
+        TaskSpec::periodic("control", RateGroup::new(2, 1), 500, Degrade),
+        TaskSpec::periodic("drive_output", every, 200, SafeMode).safe(),
+        // 10 Hz health, offset to spread the load.
+        TaskSpec::periodic("health", RateGroup::new(10, 5), 200, Skip).safe(),
+        TaskSpec::periodic("recorder", every, 3_000, Degrade).safe(),
+    ]
+}
+
+/// The task table with the configuration's overrides applied.
+pub fn specs(cfg: &Config) -> Result<Vec<TaskSpec>, ConfigError> {
+    let mut specs = defaults();
+    for (name, o) in &cfg.tasks {
+        let Some(spec) = specs.iter_mut().find(|s| s.name.as_str() == name) else {
+            return Err(ConfigError::Invalid {
+                key: format!("tasks.{name}"),
+                why: format!(
+                    "there is no task named \"{name}\" (tasks: {})",
+                    TASKS.join(", ")
+                ),
+            });
+        };
+        if let Some(d) = o.divisor {
+            spec.rate.divisor = d;
+        }
+        if let Some(off) = o.offset {
+            spec.rate.offset = off;
+        }
+        if let Some(b) = o.budget_us {
+            spec.budget_us = b;
+        }
+        if let Some(p) = &o.policy {
+            spec.policy = OverrunPolicy::parse(p).ok_or_else(|| ConfigError::Invalid {
+                key: format!("tasks.{name}.policy"),
+                why: format!("unknown policy \"{p}\""),
+            })?;
+        }
+        match (&mut spec.anytime, o.steps, o.quantum, o.window_us) {
+            (_, None, None, None) => {}
+            (Some(a), steps, quantum, window) => {
+                *a = AnytimeSpec {
+                    steps: steps.unwrap_or(a.steps),
+                    quantum: quantum.unwrap_or(a.quantum),
+                    window_us: window.unwrap_or(a.window_us),
+                };
+            }
+            (None, ..) => {
+                return Err(ConfigError::Invalid {
+                    key: format!("tasks.{name}"),
+                    why: "steps, quantum and window_us apply only to anytime tasks".into(),
+                })
+            }
+        }
+    }
+    Ok(specs)
+}
+
+/// Build and check the schedule; an unschedulable table is refused with the
+/// frame and tasks that do not fit.
+pub fn build(cfg: &Config) -> Result<Schedule, ConfigError> {
+    let specs = specs(cfg)?;
+    Schedule::build(
+        cfg.executive.minor_frame_us,
+        cfg.executive.margin_us,
+        &specs,
+    )
+    .map_err(|e| ConfigError::Invalid {
+        key: "tasks".into(),
+        why: e.to_string(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_table_fits() {
+        let s = build(&Config::default()).expect("schedulable");
+        assert_eq!(s.tasks().len(), TASKS.len());
+        for (spec, name) in s.tasks().iter().zip(TASKS) {
+            assert_eq!(spec.name.as_str(), name);
+        }
+    }
+
+    #[test]
+    fn a_budget_that_cannot_fit_is_refused_with_frame_and_tasks() {
+        let cfg = Config::from_toml("[tasks.control]\nbudget_us = 8000\n").expect("valid syntax");
+        let e = build(&cfg).expect_err("overbooked");
+        let m = e.to_string();
+        assert!(m.contains("unschedulable"), "{m}");
+        assert!(m.contains("minor frame 1"), "{m}");
+        assert!(m.contains("control 8000 us"), "{m}");
+    }
+
+    #[test]
+    fn an_unknown_task_is_named() {
+        let cfg = Config::from_toml("[tasks.planner]\nbudget_us = 10\n").expect("valid syntax");
+        let m = build(&cfg).expect_err("unknown").to_string();
+        assert!(m.contains("tasks.planner"), "{m}");
+    }
+}

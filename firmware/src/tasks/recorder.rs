@@ -1,0 +1,378 @@
+//! Taps every mailbox once per frame and records what is new: the frame's raw
+//! inputs, the CAN frames queued for the drives, IMU samples, drive feedback,
+//! odometry (pose and transform), wheel commands, health, and the path.
+
+use std::cell::RefCell;
+
+use serde::Serialize;
+use speleo_hal::Device;
+use speleo_scheduler::{Context, Mode, Task};
+
+use crate::bus::{Bus, Counters};
+use crate::record::encode::{
+    CanFrameJson, Color, FrameTransform, ImuSampleJson, Pose, PoseInFrame, Quaternion, SeqOf, Time,
+    Vector3, WheelCommandJson, WheelJson,
+};
+use crate::record::{RecorderTap, Topic};
+use crate::tasks::health::SOURCE_NAMES;
+
+/// The path is re-sent this often (frames) so a viewer that seeks finds it.
+pub const PLAN_EVERY_FRAMES: u64 = 100;
+
+pub struct RecorderTask<'r> {
+    tap: &'r RefCell<RecorderTap>,
+    imu_cursor: u64,
+    drives_seen: u64,
+    odom_seen: u64,
+    command_seen: u64,
+    health_seen: u64,
+    plan: Vec<[f64; 2]>,
+    plan_looped: bool,
+}
+
+impl<'r> RecorderTask<'r> {
+    pub fn new(tap: &'r RefCell<RecorderTap>, plan: Vec<[f64; 2]>, plan_looped: bool) -> Self {
+        RecorderTask {
+            tap,
+            imu_cursor: 0,
+            drives_seen: 0,
+            odom_seen: 0,
+            command_seen: 0,
+            health_seen: 0,
+            plan,
+            plan_looped,
+        }
+    }
+}
+
+fn raw_topic(d: Device) -> Topic {
+    match d {
+        Device::Lidar => Topic::RawLidar,
+        Device::Imu => Topic::RawImu,
+        Device::Can => Topic::RawCan,
+    }
+}
+
+#[derive(Serialize)]
+struct Stamped<T> {
+    timestamp: Time,
+    #[serde(flatten)]
+    body: T,
+}
+
+#[derive(Serialize)]
+struct HealthJson<'a, S: Serialize> {
+    timestamp: Time,
+    mode: &'a str,
+    stale: S,
+    drive_faults: u8,
+    counters: CountersJson,
+}
+
+#[derive(Serialize)]
+struct CountersJson {
+    imu_frames: u64,
+    imu_bad_checksums: u64,
+    imu_skipped_bytes: u64,
+    imu_oversize: u64,
+    imu_bad_items: u64,
+    imu_other_messages: u64,
+    imu_samples_lost: u64,
+    can_frames: u64,
+    can_malformed: u64,
+    can_unmapped: u64,
+    can_bad_length: u64,
+    can_tx_dropped: u64,
+    raw_dropped: u64,
+    hal_errors: u64,
+}
+
+impl From<&Counters> for CountersJson {
+    fn from(c: &Counters) -> Self {
+        CountersJson {
+            imu_frames: c.imu.frames,
+            imu_bad_checksums: c.imu.bad_checksums,
+            imu_skipped_bytes: c.imu.skipped_bytes,
+            imu_oversize: c.imu.oversize,
+            imu_bad_items: c.imu_bad_items,
+            imu_other_messages: c.imu_other_messages,
+            imu_samples_lost: c.imu_samples_lost,
+            can_frames: c.can_frames,
+            can_malformed: c.can_malformed,
+            can_unmapped: c.can_unmapped,
+            can_bad_length: c.can_bad_length,
+            can_tx_dropped: c.can_tx_dropped,
+            raw_dropped: c.raw_dropped,
+            hal_errors: c.hal_errors,
+        }
+    }
+}
+
+pub fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::Nominal => "nominal",
+        Mode::Safe => "safe",
+    }
+}
+
+impl Task<Bus> for RecorderTask<'_> {
+    fn run(&mut self, bus: &mut Bus, cx: &Context) {
+        let Ok(mut tap) = self.tap.try_borrow_mut() else {
+            return;
+        };
+        let (frame, now) = (cx.frame, cx.time_ns);
+
+        for e in bus.raw.entries() {
+            let bytes = bus.raw.bytes_of(e);
+            tap.raw(
+                raw_topic(e.device),
+                e.device.name(),
+                frame,
+                now,
+                e.receive_time_ns,
+                bytes,
+            );
+        }
+
+        if !bus.can_tx.is_empty() {
+            let ts = tap.time(now);
+            let frames = SeqOf::new(bus.can_tx.iter().map(|f| CanFrameJson {
+                id: f.id,
+                data: f.payload(),
+            }));
+            #[derive(Serialize)]
+            struct Frames<S> {
+                frames: S,
+            }
+            let msg = Stamped {
+                timestamp: ts,
+                body: Frames { frames },
+            };
+            tap.emit(Topic::CanTx, frame, now, now, |w| {
+                serde_json::to_writer(w, &msg)
+            });
+        }
+
+        let tap_ref = &mut *tap;
+        bus.imu.read_since(&mut self.imu_cursor, |s| {
+            let v = &s.value;
+            let msg = ImuSampleJson {
+                timestamp: tap_ref.time(s.stamp_ns),
+                packet_counter: v.packet_counter,
+                sample_time_fine: v.sample_time_fine,
+                orientation: Quaternion::wxyz(v.orientation),
+                acceleration: v.acceleration.into(),
+                rate_of_turn: v.rate_of_turn.into(),
+                status_word: v.status_word,
+            };
+            tap_ref.emit(Topic::Imu, frame, now, s.stamp_ns, |w| {
+                serde_json::to_writer(w, &msg)
+            });
+        });
+
+        if let Some(d) = bus.drives.newer_than(self.drives_seen) {
+            self.drives_seen = d.seq;
+            let wheels = SeqOf::new(d.value.wheels.iter().map(|w| WheelJson {
+                state: state_name(w.state),
+                statusword: w.statusword,
+                velocity_rad_s: w.velocity as f64 * 1e-3,
+                position_counts: w.position,
+            }));
+            #[derive(Serialize)]
+            struct Wheels<S> {
+                wheels: S,
+            }
+            let msg = Stamped {
+                timestamp: tap.time(d.stamp_ns),
+                body: Wheels { wheels },
+            };
+            tap.emit(Topic::Drives, frame, now, d.stamp_ns, |w| {
+                serde_json::to_writer(w, &msg)
+            });
+        }
+
+        if let Some(o) = bus.odom.newer_than(self.odom_seen) {
+            self.odom_seen = o.seq;
+            let ts = tap.time(o.stamp_ns);
+            let pose = PoseInFrame {
+                timestamp: ts,
+                frame_id: "odom",
+                pose: Pose {
+                    position: o.value.position.into(),
+                    orientation: Quaternion::wxyz(o.value.orientation),
+                },
+            };
+            tap.emit(Topic::Odom, frame, now, o.stamp_ns, |w| {
+                serde_json::to_writer(w, &pose)
+            });
+            let tf = FrameTransform {
+                timestamp: ts,
+                parent_frame_id: "odom",
+                child_frame_id: "base_link",
+                translation: o.value.position.into(),
+                rotation: Quaternion::wxyz(o.value.orientation),
+            };
+            tap.emit(Topic::Tf, frame, now, o.stamp_ns, |w| {
+                serde_json::to_writer(w, &tf)
+            });
+        }
+
+        if let Some(c) = bus.command.newer_than(self.command_seen) {
+            self.command_seen = c.seq;
+            let msg = WheelCommandJson {
+                timestamp: tap.time(c.stamp_ns),
+                speed: c.value.speed,
+                yaw_rate: c.value.yaw_rate,
+                wheel_speeds: c.value.wheel_speeds,
+                segment: c.value.segment,
+                done: c.value.done,
+            };
+            tap.emit(Topic::WheelCommand, frame, now, c.stamp_ns, |w| {
+                serde_json::to_writer(w, &msg)
+            });
+        }
+
+        if let Some(h) = bus.health.newer_than(self.health_seen) {
+            self.health_seen = h.seq;
+            let mask = h.value.stale_mask;
+            let msg = HealthJson {
+                timestamp: tap.time(h.stamp_ns),
+                mode: if h.value.safe_mode {
+                    "safe"
+                } else {
+                    mode_name(cx.mode)
+                },
+                stale: SeqOf::new(
+                    SOURCE_NAMES
+                        .iter()
+                        .enumerate()
+                        .filter(move |(i, _)| mask & (1 << i) != 0)
+                        .map(|(_, n)| *n),
+                ),
+                drive_faults: h.value.drive_faults,
+                counters: CountersJson::from(&bus.counters),
+            };
+            tap.emit(Topic::Health, frame, now, h.stamp_ns, |w| {
+                serde_json::to_writer(w, &msg)
+            });
+        }
+
+        if frame % PLAN_EVERY_FRAMES == 0 {
+            self.emit_plan(&mut tap, frame, now);
+        }
+    }
+
+    fn set_degraded(&mut self, _degraded: bool) {
+        // The recorder has no reduced mode: losing records is worse than
+        // losing time, and in real time the pool already drops (and counts)
+        // what the disk cannot take.
+    }
+}
+
+impl RecorderTask<'_> {
+    fn emit_plan(&self, tap: &mut RecorderTap, frame: u64, now: u64) {
+        #[derive(Serialize)]
+        struct Point {
+            x: f64,
+            y: f64,
+            z: f64,
+        }
+        #[derive(Serialize)]
+        struct Line<P> {
+            #[serde(rename = "type")]
+            kind: u8,
+            pose: Pose,
+            thickness: f64,
+            scale_invariant: bool,
+            points: P,
+            color: Color,
+            colors: [u8; 0],
+            indices: [u8; 0],
+        }
+        #[derive(Serialize)]
+        struct Entity<'a, P> {
+            timestamp: Time,
+            frame_id: &'a str,
+            id: &'a str,
+            lifetime: Time,
+            frame_locked: bool,
+            metadata: [u8; 0],
+            arrows: [u8; 0],
+            cubes: [u8; 0],
+            spheres: [u8; 0],
+            cylinders: [u8; 0],
+            lines: [Line<P>; 1],
+            triangles: [u8; 0],
+            texts: [u8; 0],
+            models: [u8; 0],
+        }
+        #[derive(Serialize)]
+        struct SceneUpdate<'a, P> {
+            deletions: [u8; 0],
+            entities: [Entity<'a, P>; 1],
+        }
+        let points = SeqOf::new(self.plan.iter().map(|p| Point {
+            x: p[0],
+            y: p[1],
+            z: 0.0,
+        }));
+        let msg = SceneUpdate {
+            deletions: [],
+            entities: [Entity {
+                timestamp: tap.time(now),
+                frame_id: "odom",
+                id: "plan",
+                lifetime: Time { sec: 0, nsec: 0 },
+                frame_locked: false,
+                metadata: [],
+                arrows: [],
+                cubes: [],
+                spheres: [],
+                cylinders: [],
+                lines: [Line {
+                    kind: if self.plan_looped { 1 } else { 0 },
+                    pose: Pose {
+                        position: Vector3 {
+                            x: 0.0,
+                            y: 0.0,
+                            z: 0.0,
+                        },
+                        orientation: Quaternion::wxyz([1.0, 0.0, 0.0, 0.0]),
+                    },
+                    thickness: 0.05,
+                    scale_invariant: false,
+                    points,
+                    color: Color {
+                        r: 0.1,
+                        g: 0.8,
+                        b: 0.3,
+                        a: 1.0,
+                    },
+                    colors: [],
+                    indices: [],
+                }],
+                triangles: [],
+                texts: [],
+                models: [],
+            }],
+        };
+        tap.emit(Topic::Plan, frame, now, now, |w| {
+            serde_json::to_writer(w, &msg)
+        });
+    }
+}
+
+pub fn state_name(s: speleo_hal::cia402::DriveState) -> &'static str {
+    use speleo_hal::cia402::DriveState::*;
+    match s {
+        NotReadyToSwitchOn => "not_ready_to_switch_on",
+        SwitchOnDisabled => "switch_on_disabled",
+        ReadyToSwitchOn => "ready_to_switch_on",
+        SwitchedOn => "switched_on",
+        OperationEnabled => "operation_enabled",
+        QuickStopActive => "quick_stop_active",
+        FaultReactionActive => "fault_reaction_active",
+        Fault => "fault",
+        Unknown => "unknown",
+    }
+}
