@@ -1,1 +1,136 @@
+//! Helpers for Speleo's end-to-end tests.
 
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use base64::Engine;
+use speleo_firmware::cli::{Outputs, ReplayArgs, SimArgs};
+use speleo_firmware::modes;
+
+/// Run `speleo sim` in this process.
+pub fn sim(seed: u64, duration_s: f64, record: Option<&Path>, report: Option<&Path>) -> ExitCode {
+    modes::sim(
+        SimArgs {
+            world: None,
+            seed: Some(seed),
+            duration: Some(duration_s),
+            config: None,
+            out: Outputs {
+                record: record.map(Path::to_path_buf),
+                report: report.map(Path::to_path_buf),
+            },
+        },
+        false,
+    )
+    .unwrap_or_else(|e| panic!("sim failed: {e}"))
+}
+
+/// Run `speleo replay` in this process.
+pub fn replay(log: &Path, report: Option<&Path>) -> ExitCode {
+    modes::replay(
+        ReplayArgs {
+            log: log.to_path_buf(),
+            out: Outputs {
+                record: None,
+                report: report.map(Path::to_path_buf),
+            },
+        },
+        false,
+    )
+    .unwrap_or_else(|e| panic!("replay failed: {e}"))
+}
+
+pub fn read_json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+pub struct Scratch {
+    pub dir: tempfile::TempDir,
+}
+
+impl Scratch {
+    pub fn new() -> Self {
+        Scratch {
+            dir: tempfile::tempdir().unwrap_or_else(|e| panic!("tempdir: {e}")),
+        }
+    }
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+}
+
+impl Default for Scratch {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Copy an MCAP file record by record, letting `edit` replace the data of
+/// any message (topic, sequence, data). Schemas, channel ids, metadata and
+/// every other message are kept as they were.
+pub fn rewrite_mcap(
+    src: &Path,
+    dst: &Path,
+    mut edit: impl FnMut(&str, u32, &[u8]) -> Option<Vec<u8>>,
+) -> usize {
+    let bytes = std::fs::read(src).unwrap_or_else(|e| panic!("{}: {e}", src.display()));
+    let file = std::fs::File::create(dst).unwrap_or_else(|e| panic!("{}: {e}", dst.display()));
+    let mut w = mcap::WriteOptions::new()
+        .compression(None)
+        .compression_threads(0)
+        .create(std::io::BufWriter::new(file))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut topics: BTreeMap<u16, String> = BTreeMap::new();
+    let mut edited = 0;
+    for r in mcap::read::ChunkFlattener::new(&bytes).unwrap_or_else(|e| panic!("{e}")) {
+        match r.unwrap_or_else(|e| panic!("{e}")) {
+            mcap::records::Record::Schema { header, data } => {
+                w.add_schema_with_id(header.id, &header.name, &header.encoding, &data)
+                    .unwrap_or_else(|e| panic!("{e}"));
+            }
+            mcap::records::Record::Channel(c) => {
+                w.add_channel_with_id(
+                    c.id,
+                    c.schema_id,
+                    &c.topic,
+                    &c.message_encoding,
+                    &c.metadata,
+                )
+                .unwrap_or_else(|e| panic!("{e}"));
+                topics.insert(c.id, c.topic);
+            }
+            mcap::records::Record::Metadata(m) => {
+                w.write_metadata(&m).unwrap_or_else(|e| panic!("{e}"));
+            }
+            mcap::records::Record::Message { header, data } => {
+                let topic = topics.get(&header.channel_id).map_or("", String::as_str);
+                let data = match edit(topic, header.sequence, &data) {
+                    Some(new) => {
+                        edited += 1;
+                        new
+                    }
+                    None => data.into_owned(),
+                };
+                w.write_to_known_channel(&header, &data)
+                    .unwrap_or_else(|e| panic!("{e}"));
+            }
+            _ => {}
+        }
+    }
+    w.finish().unwrap_or_else(|e| panic!("{e}"));
+    edited
+}
+
+/// Flip bit `mask` of byte `index` of a raw-input message's payload.
+pub fn flip_raw_byte(data: &[u8], index: usize, mask: u8) -> Vec<u8> {
+    let mut v: serde_json::Value = serde_json::from_slice(data).unwrap_or_else(|e| panic!("{e}"));
+    let b64 = base64::engine::general_purpose::STANDARD;
+    let mut raw = b64
+        .decode(v["data"].as_str().unwrap_or_default())
+        .unwrap_or_else(|e| panic!("{e}"));
+    raw[index] ^= mask;
+    v["data"] = serde_json::Value::String(b64.encode(&raw));
+    serde_json::to_vec(&v).unwrap_or_else(|e| panic!("{e}"))
+}

@@ -62,14 +62,26 @@ impl Comparer {
     }
 
     fn diverge(&mut self, topic: Topic, frame: u64, kind: DivergenceKind, actual: &[u8]) {
+        // Within one frame, keep the most upstream topic (Topic::ALL follows
+        // the data flow), so the report names the cause, not a consequence.
+        if let Some(d) = &self.divergence {
+            if d.frame < frame || (d.frame == frame && (d.topic as usize) <= (topic as usize)) {
+                return;
+            }
+        }
         self.actual.clear();
         let n = actual.len().min(self.actual.capacity());
         self.actual.extend_from_slice(&actual[..n]);
         self.divergence = Some(Divergence { topic, frame, kind });
     }
 
+    /// Is the run already known to differ before `frame`?
+    fn settled_before(&self, frame: u64) -> bool {
+        self.divergence.as_ref().is_some_and(|d| d.frame < frame)
+    }
+
     pub fn check(&mut self, topic: Topic, frame: u64, data: &[u8]) {
-        if self.divergence.is_some() || frame > self.last_frame {
+        if self.settled_before(frame) || frame > self.last_frame {
             return;
         }
         let t = topic as usize;
@@ -90,6 +102,28 @@ impl Comparer {
                 self.diverge(topic, f, DivergenceKind::Missing { expected: i }, &[])
             }
             _ => self.diverge(topic, frame, DivergenceKind::Extra, data),
+        }
+    }
+
+    /// At the end of each frame: recorded outputs of this frame (or earlier)
+    /// that the replay did not produce.
+    pub fn end_frame(&mut self, frame: u64) {
+        if self.settled_before(frame) || frame > self.last_frame {
+            return;
+        }
+        for t in 0..self.expected.len() {
+            let i = self.cursor[t];
+            if let Some(e) = self.expected[t].get(i) {
+                if e.frame <= frame {
+                    let f = e.frame;
+                    self.diverge(
+                        Topic::ALL[t],
+                        f,
+                        DivergenceKind::Missing { expected: i },
+                        &[],
+                    );
+                }
+            }
         }
     }
 
@@ -290,6 +324,21 @@ mod tests {
                 ..
             })
         ));
+    }
+
+    #[test]
+    fn the_most_upstream_topic_of_a_frame_is_reported() {
+        let mut e = vec![Vec::new(); Topic::ALL.len()];
+        e[Topic::Imu as usize] = vec![msg(5, "{}"), msg(6, "{}")];
+        e[Topic::Odom as usize] = vec![msg(5, "{\"x\":1}")];
+        let mut c = Comparer::new(e, 10);
+        // The IMU sample of frame 5 is missing; odometry differs as a result.
+        c.check(Topic::Odom, 5, b"{\"x\":2}");
+        c.end_frame(5);
+        assert_eq!(
+            c.divergence().map(|d| (d.topic, d.frame)),
+            Some((Topic::Imu, 5))
+        );
     }
 
     #[test]

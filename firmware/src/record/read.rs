@@ -83,6 +83,45 @@ impl Recording {
     }
 }
 
+/// The top-level records of an MCAP file: (opcode, offset, total length).
+pub struct RecordScan {
+    pub records: Vec<(u8, usize, usize)>,
+    /// Bytes up to the end of the last record that is wholly in the file.
+    pub complete_len: usize,
+}
+
+/// Walk the top-level records (`opcode: u8, length: u64 LE, body`) after the
+/// magic. A killed writer leaves a last record (usually a chunk) whose
+/// declared length runs past the end of the file; everything before it is
+/// whole.
+pub fn scan_records(bytes: &[u8]) -> RecordScan {
+    let magic = mcap::MAGIC.len();
+    let mut at = magic.min(bytes.len());
+    let mut records = Vec::new();
+    while at + 9 <= bytes.len() {
+        let op = bytes[at];
+        let mut len = [0u8; 8];
+        len.copy_from_slice(&bytes[at + 1..at + 9]);
+        let body = u64::from_le_bytes(len);
+        let Some(end) = (at as u64 + 9)
+            .checked_add(body)
+            .filter(|e| *e <= bytes.len() as u64)
+        else {
+            break;
+        };
+        records.push((op, at, end as usize - at));
+        at = end as usize;
+        // The footer is followed only by the closing magic.
+        if op == 0x02 {
+            break;
+        }
+    }
+    RecordScan {
+        records,
+        complete_len: at,
+    }
+}
+
 #[derive(serde::Deserialize)]
 struct RawJson {
     device: String,
@@ -101,9 +140,15 @@ pub fn load(path: &Path) -> Result<Recording, ReadError> {
             why: "it does not start with the MCAP magic".into(),
         });
     }
+    // Read only the records that are wholly in the file; a cut tail means the
+    // writer was killed, and any error inside the whole records is damage.
+    let scan = scan_records(&bytes);
+    let finished = scan.records.last().is_some_and(|r| r.0 == 0x02);
+    let cut = bytes.len() - scan.complete_len;
+    let whole = &bytes[..scan.complete_len];
     let options =
         enum_set!(mcap::read::Options::IgnoreEndMagic | mcap::read::Options::ValidateChunkCrcs);
-    let records = mcap::read::ChunkFlattener::new_with_options(&bytes, options).map_err(|e| {
+    let records = mcap::read::ChunkFlattener::new_with_options(whole, options).map_err(|e| {
         ReadError::NotMcap {
             path: p.clone(),
             why: e.to_string(),
@@ -116,7 +161,13 @@ pub fn load(path: &Path) -> Result<Recording, ReadError> {
         expected: vec![Vec::new(); Topic::ALL.len()],
         messages: 0,
         max_frame: None,
-        truncated: None,
+        truncated: (!finished).then(|| {
+            if cut > 0 {
+                format!("the writer stopped inside a record; the last {cut} bytes are an unfinished chunk")
+            } else {
+                "the writer stopped before closing the file".to_string()
+            }
+        }),
     };
     let mut channels: BTreeMap<u16, Topic> = BTreeMap::new();
     let epoch = |run: &BTreeMap<String, String>| -> u64 {
@@ -127,10 +178,9 @@ pub fn load(path: &Path) -> Result<Recording, ReadError> {
     for r in records {
         let r = match r {
             Ok(r) => r,
-            Err(mcap::McapError::UnexpectedEof) => {
-                rec.truncated = Some("the file ends inside a record (writer killed?)".into());
-                break;
-            }
+            // The whole records of an unfinished file end without a data-end
+            // record; that is the expected end, not damage.
+            Err(mcap::McapError::UnexpectedEof) if !finished => break,
             Err(e) => {
                 return Err(ReadError::Damaged {
                     path: p,

@@ -260,6 +260,9 @@ impl Task<Bus> for RecorderTask<'_> {
         if frame % PLAN_EVERY_FRAMES == 0 {
             self.emit_plan(&mut tap, frame, now);
         }
+        if let Some(c) = tap.comparer_mut() {
+            c.end_frame(frame);
+        }
     }
 
     fn set_degraded(&mut self, _degraded: bool) {
