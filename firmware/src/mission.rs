@@ -84,12 +84,10 @@ pub enum MissionError {
     Executive(#[from] ExecutiveError),
 }
 
-/// Park this thread once on a channel so the standard library's per-thread
-/// blocking context exists before the first frame (it is created lazily on
-/// first use, which would otherwise count as an allocation mid-run).
+/// Park this thread once so that everything the standard library creates
+/// lazily for parking exists before the first frame.
 fn warm_up_blocking() {
-    let (_tx, rx) = std::sync::mpsc::sync_channel::<()>(1);
-    let _ = rx.recv_timeout(Duration::from_micros(1));
+    std::thread::park_timeout(Duration::from_micros(1));
 }
 
 fn follower(cfg: &Config) -> PurePursuit {

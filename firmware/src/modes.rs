@@ -153,7 +153,10 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     let handle = start_writer(&a.out, &cfg, meta)?;
     let (tap, thread) = match handle {
         Some(h) => (
-            RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, true),
+            {
+                let t = h.thread.thread().clone();
+                RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, t, true)
+            },
             Some(h.thread),
         ),
         None => (RecorderTap::new(epoch_ns, None), None),
@@ -215,7 +218,10 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
     let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
     let (tap, thread) = match handle {
         Some(h) => (
-            RecorderTap::new(epoch_ns, Some(comparer)).with_writer(h.tx, h.pool, true),
+            {
+                let t = h.thread.thread().clone();
+                RecorderTap::new(epoch_ns, Some(comparer)).with_writer(h.tx, h.pool, t, true)
+            },
             Some(h.thread),
         ),
         None => (RecorderTap::new(epoch_ns, Some(comparer)), None),
@@ -296,7 +302,10 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     let (tap, thread) = match handle {
         // Real time: the frame never waits for the disk; drops are counted.
         Some(h) => (
-            RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, false),
+            {
+                let t = h.thread.thread().clone();
+                RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, t, false)
+            },
             Some(h.thread),
         ),
         None => (RecorderTap::new(epoch_ns, None), None),

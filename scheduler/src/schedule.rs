@@ -20,6 +20,10 @@ pub struct Schedule {
 }
 
 /// Why a schedule was refused.
+///
+/// `Overbooked` carries the frame's task list inline (about 1 KiB) because
+/// the core has no heap; the error is built once, when a schedule is loaded.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ScheduleError {
     ZeroMinorFrame,
@@ -116,6 +120,7 @@ impl Schedule {
     /// In every minor frame of the hyperperiod, the shares (budgets, or windows
     /// for anytime tasks) of the tasks that run in it plus `margin_us` must fit
     /// in `minor_frame_us`.
+    #[allow(clippy::result_large_err)] // see ScheduleError
     pub fn build(
         minor_frame_us: u32,
         margin_us: u32,

@@ -237,7 +237,10 @@ impl Platform for &ScriptedPlatform {
     }
 }
 
-fn run_policy_case(overrunning_slot: usize, frames: u64) -> (Bus, Vec<(u64, u64, u64, u64)>, Mode) {
+/// Per task: (runs, overruns, skipped, retracted).
+type Counts = Vec<(u64, u64, u64, u64)>;
+
+fn run_policy_case(overrunning_slot: usize, frames: u64) -> (Bus, Counts, Mode) {
     let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
     let platform = ScriptedPlatform::new();
     let mut d = [50_000u64; 8];

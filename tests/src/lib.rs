@@ -10,12 +10,23 @@ use speleo_firmware::modes;
 
 /// Run `speleo sim` in this process.
 pub fn sim(seed: u64, duration_s: f64, record: Option<&Path>, report: Option<&Path>) -> ExitCode {
+    sim_with_config(seed, duration_s, None, record, report)
+}
+
+/// Run `speleo sim` in this process with a configuration file.
+pub fn sim_with_config(
+    seed: u64,
+    duration_s: f64,
+    config: Option<&Path>,
+    record: Option<&Path>,
+    report: Option<&Path>,
+) -> ExitCode {
     modes::sim(
         SimArgs {
             world: None,
             seed: Some(seed),
             duration: Some(duration_s),
-            config: None,
+            config: config.map(Path::to_path_buf),
             out: Outputs {
                 record: record.map(Path::to_path_buf),
                 report: report.map(Path::to_path_buf),

@@ -3,7 +3,7 @@
 //! replay, and hands the buffer to the writer thread.
 
 use std::collections::BTreeMap;
-use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
+use std::thread::Thread;
 
 use base64::Engine;
 use xxhash_rust::xxh3::Xxh3Default;
@@ -11,15 +11,16 @@ use xxhash_rust::xxh3::Xxh3Default;
 use super::compare::Comparer;
 use super::encode::{Base64, Bounded, RawInput, Time};
 use super::topics::{Role, Topic};
-use super::writer::{Outgoing, WriterMsg, MESSAGE_CAPACITY};
+use super::writer::{Outgoing, WriterMsg, MESSAGE_CAPACITY, NAP};
 
 /// Longest raw input recorded (an HDL-32E packet is 1206 bytes; a serial read
 /// is bounded by the driver's buffer).
 pub const MAX_RAW_INPUT: usize = 4096;
 
 struct TapWriter {
-    tx: SyncSender<WriterMsg>,
-    pool: Receiver<Vec<u8>>,
+    tx: rtrb::Producer<WriterMsg>,
+    pool: rtrb::Consumer<Vec<u8>>,
+    thread: Thread,
     /// Wait for a free buffer (virtual time: nothing is ever dropped) or drop
     /// and count (real time: the frame must not wait for the disk).
     blocking: bool,
@@ -67,13 +68,21 @@ impl RecorderTap {
         }
     }
 
+    /// Send messages to the writer thread `thread` through `tx`, taking
+    /// buffers from `pool`.
     pub fn with_writer(
         mut self,
-        tx: SyncSender<WriterMsg>,
-        pool: Receiver<Vec<u8>>,
+        tx: rtrb::Producer<WriterMsg>,
+        pool: rtrb::Consumer<Vec<u8>>,
+        thread: Thread,
         blocking: bool,
     ) -> Self {
-        self.writer = Some(TapWriter { tx, pool, blocking });
+        self.writer = Some(TapWriter {
+            tx,
+            pool,
+            thread,
+            blocking,
+        });
         self
     }
 
@@ -128,9 +137,13 @@ impl RecorderTap {
             publish_time,
             buf,
         };
-        if let Some(w) = self.writer.as_ref() {
-            match w.tx.send(WriterMsg::Message(m)) {
-                Ok(()) => self.counters.written += 1,
+        if let Some(w) = self.writer.as_mut() {
+            // Never full: the ring has a slot for every buffer of the pool.
+            match w.tx.push(WriterMsg::Message(m)) {
+                Ok(()) => {
+                    self.counters.written += 1;
+                    w.thread.unpark();
+                }
                 Err(_) => self.counters.writer_gone = true,
             }
         }
@@ -171,23 +184,27 @@ impl RecorderTap {
         if let Some(b) = self.spare.take() {
             return (b, true);
         }
-        let got = match self.writer.as_ref() {
-            Some(w) if !self.counters.writer_gone => {
-                if w.blocking {
-                    w.pool.recv().ok()
-                } else {
-                    match w.pool.try_recv() {
-                        Ok(b) => Some(b),
-                        Err(TryRecvError::Empty) => {
-                            self.counters.dropped_no_buffer += 1;
-                            None
-                        }
-                        Err(TryRecvError::Disconnected) => None,
+        let mut got = None;
+        if let Some(w) = self.writer.as_mut() {
+            while !self.counters.writer_gone {
+                match w.pool.pop() {
+                    Ok(b) => {
+                        got = Some(b);
+                        break;
+                    }
+                    Err(_) if w.pool.is_abandoned() => self.counters.writer_gone = true,
+                    Err(_) if w.blocking => {
+                        // Virtual time: wait for the disk rather than lose data.
+                        w.thread.unpark();
+                        std::thread::park_timeout(NAP);
+                    }
+                    Err(_) => {
+                        self.counters.dropped_no_buffer += 1;
+                        break;
                     }
                 }
             }
-            _ => None,
-        };
+        }
         match got {
             Some(b) => (b, true),
             // Not recorded, but still hashed and compared.
@@ -219,8 +236,9 @@ impl RecorderTap {
     /// Close the recording with a summary record; the writer thread then
     /// finishes the file and ends.
     pub fn finish(&mut self, summary: BTreeMap<String, String>) {
-        if let Some(w) = self.writer.take() {
-            let _ = w.tx.send(WriterMsg::Finish(summary));
+        if let Some(mut w) = self.writer.take() {
+            let _ = w.tx.push(WriterMsg::Finish(summary));
+            w.thread.unpark();
         }
     }
 }

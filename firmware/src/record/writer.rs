@@ -6,12 +6,17 @@
 //! file I/O therefore cost the frame nothing and allocate nothing on the
 //! executive's thread. Chunks go straight to the file when they close, so a
 //! killed process loses at most the open chunk.
+//!
+//! Messages and buffers travel through two wait-free single-producer rings
+//! (`rtrb`), which never allocate after creation (a blocking std channel
+//! registers a waker on the heap the first time a thread waits on it). A side
+//! that must wait parks with a timeout and is unparked by the other.
 
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
-use std::thread::JoinHandle;
+use std::thread::{JoinHandle, Thread};
+use std::time::Duration;
 
 use super::topics::Topic;
 
@@ -50,10 +55,13 @@ pub struct WriterStats {
 }
 
 pub struct WriterHandle {
-    pub tx: SyncSender<WriterMsg>,
-    pub pool: Receiver<Vec<u8>>,
+    pub tx: rtrb::Producer<WriterMsg>,
+    pub pool: rtrb::Consumer<Vec<u8>>,
     pub thread: JoinHandle<Result<WriterStats, String>>,
 }
+
+/// Longest nap of a side waiting for the other (it is normally unparked).
+pub const NAP: Duration = Duration::from_millis(2);
 
 fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
     let file = File::create(&opts.path)
@@ -93,18 +101,21 @@ fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
 }
 
 /// Create the file and start the thread. The file is created before this
-/// returns, so a bad path is reported at start-up.
+/// returns, so a bad path is reported at start-up. Call it on the thread that
+/// will record: that thread is unparked when buffers come back.
 pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
     let mut w = open(&opts)?;
-    let (tx, rx) = sync_channel::<WriterMsg>(opts.pool);
-    let (pool_tx, pool_rx) = sync_channel::<Vec<u8>>(opts.pool);
+    // One more slot than buffers, for the closing message.
+    let (tx, rx) = rtrb::RingBuffer::<WriterMsg>::new(opts.pool + 1);
+    let (mut pool_tx, pool_rx) = rtrb::RingBuffer::<Vec<u8>>::new(opts.pool);
     for _ in 0..opts.pool {
-        let _ = pool_tx.send(Vec::with_capacity(MESSAGE_CAPACITY));
+        let _ = pool_tx.push(Vec::with_capacity(MESSAGE_CAPACITY));
     }
     let path = opts.path.clone();
+    let recorder = std::thread::current();
     let thread = std::thread::Builder::new()
         .name("mcap-writer".into())
-        .spawn(move || run(&mut w, &path, rx, pool_tx))
+        .spawn(move || run(&mut w, &path, rx, pool_tx, recorder))
         .map_err(|e| format!("cannot start the writer thread: {e}"))?;
     Ok(WriterHandle {
         tx,
@@ -116,13 +127,22 @@ pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
 fn run(
     w: &mut mcap::Writer<File>,
     path: &Path,
-    rx: Receiver<WriterMsg>,
-    pool_tx: SyncSender<Vec<u8>>,
+    mut rx: rtrb::Consumer<WriterMsg>,
+    mut pool_tx: rtrb::Producer<Vec<u8>>,
+    recorder: Thread,
 ) -> Result<WriterStats, String> {
     let err = |e: mcap::McapError| format!("{}: {e}", path.display());
     let mut stats = WriterStats::default();
     let mut summary = BTreeMap::new();
-    while let Ok(msg) = rx.recv() {
+    loop {
+        let msg = match rx.pop() {
+            Ok(m) => m,
+            Err(_) if rx.is_abandoned() && rx.is_empty() => break,
+            Err(_) => {
+                std::thread::park_timeout(NAP);
+                continue;
+            }
+        };
         match msg {
             WriterMsg::Message(m) => {
                 let header = mcap::records::MessageHeader {
@@ -134,8 +154,9 @@ fn run(
                 w.write_to_known_channel(&header, &m.buf).map_err(err)?;
                 stats.messages += 1;
                 stats.bytes += m.buf.len() as u64;
-                // The pool has room for every buffer, so this never blocks.
-                let _ = pool_tx.try_send(m.buf);
+                // The pool ring has room for every buffer.
+                let _ = pool_tx.push(m.buf);
+                recorder.unpark();
             }
             WriterMsg::Finish(meta) => {
                 summary = meta;

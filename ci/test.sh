@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The project's test command (README.md): format check, clippy with warnings
+# denied, and every test of the workspace. Needs only a Rust toolchain with
+# rustfmt and clippy; everything else is a crate fetched by cargo.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if ! cargo fmt --version >/dev/null 2>&1; then
+  rustup component add rustfmt
+fi
+if ! cargo clippy --version >/dev/null 2>&1; then
+  rustup component add clippy
+fi
+
+echo "== cargo fmt --check"
+cargo fmt --all -- --check
+echo "== cargo clippy"
+cargo clippy --workspace --all-targets --locked -- -D warnings
+echo "== cargo test"
+cargo test --workspace --locked
