@@ -18,7 +18,7 @@ use speleo_scheduler::{Enforcement, Executive, FrameClock, Mode, Schedule, Task}
 
 use crate::bus::Bus;
 use crate::config::Config;
-use crate::record::encode::{Pose, PoseInFrame, Quaternion, SeqOf, Time};
+use crate::record::encode::{FrameTransform, Pose, PoseInFrame, Quaternion, SeqOf, Time};
 use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
 use crate::tasks::recorder::mode_name;
@@ -257,6 +257,20 @@ pub fn run<C: FrameClock>(
 
 fn record_truth(tap: &mut RecorderTap, frame: u64, now: u64, truth: &TruthProbe) {
     let g = truth.get();
+    if frame.is_multiple_of(crate::tasks::recorder::PLAN_EVERY_FRAMES) {
+        // Odometry starts where the simulated rover starts: at the world
+        // origin, heading zero. This ties the two trees together in a viewer.
+        let tf = FrameTransform {
+            timestamp: tap.time(now),
+            parent_frame_id: "world",
+            child_frame_id: "odom",
+            translation: [0.0; 3].into(),
+            rotation: Quaternion::wxyz([1.0, 0.0, 0.0, 0.0]),
+        };
+        tap.emit(Topic::SimTf, frame, now, now, |w| {
+            serde_json::to_writer(w, &tf)
+        });
+    }
     let half = 0.5 * g.yaw;
     let msg = PoseInFrame {
         timestamp: tap.time(g.time_ns),

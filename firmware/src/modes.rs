@@ -1,4 +1,5 @@
-//! The three modes: sim, replay and run.
+//! The three modes: sim, replay and run. Each prepares its hardware, clock
+//! and recorder, then hands them to [`Session::drive`].
 
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -6,23 +7,118 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
+use std::thread::JoinHandle;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use speleo_hal::replay::ReplayHardware;
-use speleo_hal::sim::{RoverParams, SimHardware, SimParams};
+use speleo_hal::sim::{RoverParams, SimHardware, SimParams, TruthProbe};
+use speleo_hal::Hardware;
 use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
-use speleo_scheduler::{Enforcement, VirtualClock};
+use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
 
 use crate::cli::{Outputs, ReplayArgs, RunArgs, SimArgs};
 use crate::config::Config;
 use crate::mission::{self, Length, MissionInputs, MissionResult};
 use crate::record::compare::Comparer;
-use crate::record::writer::{self, WriterHandle, WriterOptions};
+use crate::record::writer::{self, WriterOptions, WriterStats};
 use crate::record::{read, RecorderTap};
 use crate::report::{self, ReplayReport};
 use crate::schedule_table;
 
 type Error = Box<dyn std::error::Error>;
+
+/// The recorder of one run and, when recording, its writer thread.
+struct Session {
+    tap: RefCell<RecorderTap>,
+    writer: Option<JoinHandle<Result<WriterStats, String>>>,
+}
+
+impl Session {
+    /// `blocking`: on virtual time the recorder waits for the disk; in real
+    /// time it drops (and counts) rather than delay a frame.
+    fn open(
+        out: &Outputs,
+        cfg: &Config,
+        meta: BTreeMap<String, String>,
+        epoch_ns: u64,
+        comparer: Option<Comparer>,
+        blocking: bool,
+    ) -> Result<Session, Error> {
+        let tap = RecorderTap::new(epoch_ns, comparer);
+        let Some(path) = &out.record else {
+            return Ok(Session {
+                tap: RefCell::new(tap),
+                writer: None,
+            });
+        };
+        let h = writer::spawn(WriterOptions {
+            path: path.clone(),
+            zstd: cfg.record.compression == "zstd",
+            chunk_size: cfg.record.chunk_size_kib as u64 * 1024,
+            pool: cfg.record.pool_messages as usize,
+            run_metadata: meta,
+        })?;
+        let thread = h.thread.thread().clone();
+        Ok(Session {
+            tap: RefCell::new(tap.with_writer(h.tx, h.pool, thread, blocking)),
+            writer: Some(h.thread),
+        })
+    }
+
+    /// Run the mission, then close the recording.
+    #[allow(clippy::too_many_arguments)]
+    fn drive<C: FrameClock>(
+        &mut self,
+        cfg: &Config,
+        length: Length,
+        enforcement: Enforcement,
+        truth: Option<TruthProbe>,
+        stop: &AtomicBool,
+        hw: &mut dyn Hardware,
+        clock: C,
+        progress: bool,
+    ) -> Result<MissionResult, Error> {
+        let schedule = schedule_table::build(cfg)?;
+        let total = match length {
+            Length::Frames(n) => Some(n),
+            Length::UntilStopped => None,
+        };
+        let bar = progress_bar(progress, total);
+        let on_progress = |done: u64, _total: Option<u64>| bar.set_position(done);
+        let result = mission::run(
+            MissionInputs {
+                cfg,
+                schedule,
+                length,
+                enforcement,
+                truth,
+                stop,
+                progress: Some(&on_progress),
+            },
+            hw,
+            &self.tap,
+            clock,
+        )?;
+        bar.finish_and_clear();
+        self.tap
+            .borrow_mut()
+            .finish(mission::summary_metadata(&result));
+        if let Some(h) = self.writer.take() {
+            match h.join() {
+                Ok(Ok(stats)) => {
+                    tracing::debug!(
+                        messages = stats.messages,
+                        bytes = stats.bytes,
+                        "recording closed"
+                    )
+                }
+                Ok(Err(e)) => return Err(format!("recording failed: {e}").into()),
+                Err(_) => return Err("the recording thread panicked".into()),
+            }
+        }
+        Ok(result)
+    }
+}
 
 fn progress_bar(enabled: bool, total: Option<u64>) -> ProgressBar {
     if !enabled {
@@ -54,42 +150,17 @@ fn run_metadata(cfg: &Config, mode: &str, epoch_ns: u64) -> BTreeMap<String, Str
     m
 }
 
-fn start_writer(
-    out: &Outputs,
-    cfg: &Config,
-    meta: BTreeMap<String, String>,
-) -> Result<Option<WriterHandle>, Error> {
-    let Some(path) = &out.record else {
-        return Ok(None);
-    };
-    Ok(Some(writer::spawn(WriterOptions {
-        path: path.clone(),
-        zstd: cfg.record.compression == "zstd",
-        chunk_size: cfg.record.chunk_size_kib as u64 * 1024,
-        pool: cfg.record.pool_messages as usize,
-        run_metadata: meta,
-    })?))
+/// On virtual time, policies act only when the configuration asks (budget tests).
+fn virtual_enforcement(cfg: &Config) -> Enforcement {
+    if cfg.executive.enforce_policies_in_sim {
+        Enforcement::Enforce
+    } else {
+        Enforcement::CountOnly
+    }
 }
 
-/// Close the recording and wait for the writer to finish the file.
-fn finish_writer(
-    tap: &RefCell<RecorderTap>,
-    handle: Option<std::thread::JoinHandle<Result<writer::WriterStats, String>>>,
-    result: &MissionResult,
-) -> Result<(), Error> {
-    tap.borrow_mut().finish(mission::summary_metadata(result));
-    if let Some(h) = handle {
-        match h.join() {
-            Ok(Ok(stats)) => tracing::debug!(
-                messages = stats.messages,
-                bytes = stats.bytes,
-                "recording closed"
-            ),
-            Ok(Err(e)) => return Err(format!("recording failed: {e}").into()),
-            Err(_) => return Err("the recording thread panicked".into()),
-        }
-    }
-    Ok(())
+fn frames_for(cfg: &Config, seconds: f64) -> u64 {
+    (seconds * 1e6 / cfg.executive.minor_frame_us as f64).round() as u64
 }
 
 fn print_summary(r: &MissionResult) {
@@ -131,8 +202,7 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         cfg.sim.world = w.clone();
     }
     cfg.validate()?;
-    let schedule = schedule_table::build(&cfg)?;
-    let frames = (cfg.sim.duration_s * 1e6 / cfg.executive.minor_frame_us as f64).round() as u64;
+    schedule_table::build(&cfg)?;
     let params = SimParams {
         seed: cfg.sim.seed,
         rover: RoverParams {
@@ -150,42 +220,17 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     let mut meta = run_metadata(&cfg, "sim", epoch_ns);
     meta.insert("seed".into(), cfg.sim.seed.to_string());
     meta.insert("world".into(), cfg.sim.world.clone());
-    let handle = start_writer(&a.out, &cfg, meta)?;
-    let (tap, thread) = match handle {
-        Some(h) => (
-            {
-                let t = h.thread.thread().clone();
-                RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, t, true)
-            },
-            Some(h.thread),
-        ),
-        None => (RecorderTap::new(epoch_ns, None), None),
-    };
-    let tap = RefCell::new(tap);
-    let bar = progress_bar(progress, Some(frames));
-    let on_progress = |done: u64, _total: Option<u64>| bar.set_position(done);
-    let stop = AtomicBool::new(false);
-    let enforcement = if cfg.executive.enforce_policies_in_sim {
-        Enforcement::Enforce
-    } else {
-        Enforcement::CountOnly
-    };
-    let result = mission::run(
-        MissionInputs {
-            cfg: &cfg,
-            schedule,
-            length: Length::Frames(frames),
-            enforcement,
-            truth: Some(truth),
-            stop: &stop,
-            progress: Some(&on_progress),
-        },
+    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, None, true)?;
+    let result = session.drive(
+        &cfg,
+        Length::Frames(frames_for(&cfg, cfg.sim.duration_s)),
+        virtual_enforcement(&cfg),
+        Some(truth),
+        &AtomicBool::new(false),
         &mut hw,
-        &tap,
         VirtualClock::new(cfg.executive.minor_frame_us),
+        progress,
     )?;
-    bar.finish_and_clear();
-    finish_writer(&tap, thread, &result)?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
     print_summary(&result);
     Ok(ExitCode::SUCCESS)
@@ -199,7 +244,6 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
         .ok_or_else(|| format!("{}: the recording holds no configuration", a.log.display()))?;
     let cfg = Config::from_toml(cfg_text)
         .map_err(|e| format!("{}: recorded configuration: {e}", a.log.display()))?;
-    let schedule = schedule_table::build(&cfg)?;
     let Some(last) = rec.last_complete_frame() else {
         return Err(format!("{}: no complete frame to replay", a.log.display()).into());
     };
@@ -213,47 +257,21 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
     let truncated = rec.truncated.is_some();
     let mut meta = run_metadata(&cfg, "replay", epoch_ns);
     meta.insert("source".into(), a.log.display().to_string());
-    let handle = start_writer(&a.out, &cfg, meta)?;
     let comparer = Comparer::new(rec.expected, last);
+    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, Some(comparer), true)?;
     let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
-    let (tap, thread) = match handle {
-        Some(h) => (
-            {
-                let t = h.thread.thread().clone();
-                RecorderTap::new(epoch_ns, Some(comparer)).with_writer(h.tx, h.pool, t, true)
-            },
-            Some(h.thread),
-        ),
-        None => (RecorderTap::new(epoch_ns, Some(comparer)), None),
-    };
-    let tap = RefCell::new(tap);
-    let frames = last + 1;
-    let bar = progress_bar(progress, Some(frames));
-    let on_progress = |done: u64, _total: Option<u64>| bar.set_position(done);
-    let stop = AtomicBool::new(false);
-    let enforcement = if cfg.executive.enforce_policies_in_sim {
-        Enforcement::Enforce
-    } else {
-        Enforcement::CountOnly
-    };
-    let result = mission::run(
-        MissionInputs {
-            cfg: &cfg,
-            schedule,
-            length: Length::Frames(frames),
-            enforcement,
-            truth: None,
-            stop: &stop,
-            progress: Some(&on_progress),
-        },
+    let result = session.drive(
+        &cfg,
+        Length::Frames(last + 1),
+        virtual_enforcement(&cfg),
+        None,
+        &AtomicBool::new(false),
         &mut hw,
-        &tap,
         VirtualClock::new(cfg.executive.minor_frame_us),
+        progress,
     )?;
-    bar.finish_and_clear();
-    finish_writer(&tap, thread, &result)?;
     let (divergence, compared) = {
-        let t = tap.borrow();
+        let t = session.tap.borrow();
         let c = t.comparer();
         (c.and_then(|c| c.describe()), c.map_or(0, |c| c.compared))
     };
@@ -272,7 +290,11 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
     match divergence {
         None => {
             println!("identical");
-            tracing::info!(frames, compared, "every output matches the recording");
+            tracing::info!(
+                frames = result.frames,
+                compared,
+                "every output matches the recording"
+            );
             Ok(ExitCode::SUCCESS)
         }
         Some(d) => {
@@ -284,7 +306,7 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
 
 pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     let cfg = Config::load(&a.config)?;
-    let schedule = schedule_table::build(&cfg)?;
+    schedule_table::build(&cfg)?;
     let mut hw = speleo_hal::real::RealHardware::open(&speleo_hal::real::DeviceSettings {
         lidar_bind: cfg.devices.lidar_bind.clone(),
         lidar_sensor: cfg.devices.lidar_sensor.clone(),
@@ -298,49 +320,26 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_nanos() as u64)
         .unwrap_or(0);
-    let handle = start_writer(&a.out, &cfg, run_metadata(&cfg, "run", epoch_ns))?;
-    let (tap, thread) = match handle {
-        // Real time: the frame never waits for the disk; drops are counted.
-        Some(h) => (
-            {
-                let t = h.thread.thread().clone();
-                RecorderTap::new(epoch_ns, None).with_writer(h.tx, h.pool, t, false)
-            },
-            Some(h.thread),
-        ),
-        None => (RecorderTap::new(epoch_ns, None), None),
-    };
-    let tap = RefCell::new(tap);
+    let meta = run_metadata(&cfg, "run", epoch_ns);
+    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, None, false)?;
     let stop = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(sig, Arc::clone(&stop))?;
     }
     let length = match a.duration {
-        Some(d) => Length::Frames((d * 1e6 / cfg.executive.minor_frame_us as f64).round() as u64),
+        Some(d) => Length::Frames(frames_for(&cfg, d)),
         None => Length::UntilStopped,
     };
-    let total = match length {
-        Length::Frames(n) => Some(n),
-        Length::UntilStopped => None,
-    };
-    let bar = progress_bar(progress, total);
-    let on_progress = |done: u64, _total: Option<u64>| bar.set_position(done);
-    let result = mission::run(
-        MissionInputs {
-            cfg: &cfg,
-            schedule,
-            length,
-            enforcement: Enforcement::Enforce,
-            truth: None,
-            stop: &stop,
-            progress: Some(&on_progress),
-        },
+    let result = session.drive(
+        &cfg,
+        length,
+        Enforcement::Enforce,
+        None,
+        &stop,
         &mut hw,
-        &tap,
         MonotonicClock::new(cfg.executive.minor_frame_us),
+        progress,
     )?;
-    bar.finish_and_clear();
-    finish_writer(&tap, thread, &result)?;
     write_report(a.out.report.as_deref(), "run", &result, None)?;
     print_summary(&result);
     Ok(ExitCode::SUCCESS)

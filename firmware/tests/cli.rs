@@ -42,15 +42,12 @@ fn two_processes_give_the_same_output_hash() {
     assert_eq!(hash_of(&a), hash_of(&b));
 }
 
-#[test]
-fn an_unknown_key_is_refused_by_name() {
+/// Run `speleo sim` with `toml` as its configuration file `name`; it must
+/// refuse with status 2. Returns what it printed.
+fn refused(name: &str, toml: &str) -> String {
     let d = tempfile::tempdir().expect("tmp");
-    let cfg = d.path().join("bad.toml");
-    std::fs::write(
-        &cfg,
-        "[executive]\nminor_frame_us = 10000\nminor_frame_ms = 10\n",
-    )
-    .expect("write");
+    let cfg = d.path().join(name);
+    std::fs::write(&cfg, toml).expect("write");
     let out = speleo(&[
         "sim",
         "--duration",
@@ -59,25 +56,22 @@ fn an_unknown_key_is_refused_by_name() {
         cfg.to_str().expect("utf8"),
     ]);
     assert_eq!(out.status.code(), Some(2));
-    let e = text(&out.stderr);
+    text(&out.stderr)
+}
+
+#[test]
+fn an_unknown_key_is_refused_by_name() {
+    let e = refused(
+        "bad.toml",
+        "[executive]\nminor_frame_us = 10000\nminor_frame_ms = 10\n",
+    );
     assert!(e.contains("minor_frame_ms"), "{e}");
     assert!(e.contains("bad.toml"), "{e}");
 }
 
 #[test]
 fn a_budget_that_cannot_fit_is_refused_with_frame_and_tasks() {
-    let d = tempfile::tempdir().expect("tmp");
-    let cfg = d.path().join("tight.toml");
-    std::fs::write(&cfg, "[tasks.recorder]\nbudget_us = 8000\n").expect("write");
-    let out = speleo(&[
-        "sim",
-        "--duration",
-        "1",
-        "--config",
-        cfg.to_str().expect("utf8"),
-    ]);
-    assert_eq!(out.status.code(), Some(2));
-    let e = text(&out.stderr);
+    let e = refused("tight.toml", "[tasks.recorder]\nbudget_us = 8000\n");
     assert!(e.contains("unschedulable"), "{e}");
     assert!(e.contains("minor frame 0"), "{e}");
     assert!(e.contains("recorder 8000 us"), "{e}");

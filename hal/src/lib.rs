@@ -66,6 +66,13 @@ pub enum HalError {
     TxFull,
 }
 
+/// Where receive times come from. Every receive time is in the executive's
+/// time base: nanoseconds since the hardware was opened (the real rover), or
+/// virtual time (sim and replay, whose backends stamp inputs themselves).
+pub trait TimeSource: Send + Sync {
+    fn now_ns(&self) -> u64;
+}
+
 /// A LiDAR packet source (one UDP datagram per input).
 pub trait LidarSource {
     fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError>;

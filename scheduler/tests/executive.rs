@@ -119,32 +119,54 @@ fn specs() -> Vec<TaskSpec> {
     ]
 }
 
+/// The four test tasks, and an executive over them with the standard table.
+struct Tasks {
+    producer: Producer,
+    doubler: Doubler,
+    countdown: Countdown,
+    motor: MotorOut,
+}
+
+impl Tasks {
+    fn new() -> Self {
+        Tasks {
+            producer: Producer,
+            doubler: Doubler {
+                seen: 0,
+                degraded: false,
+            },
+            countdown: Countdown { remaining: 0 },
+            motor: MotorOut,
+        }
+    }
+
+    fn executive<P: Platform>(
+        &mut self,
+        platform: P,
+        enforcement: Enforcement,
+    ) -> Executive<'_, Bus, P, VirtualClock> {
+        let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
+        let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
+        let _ = tasks.push(&mut self.producer);
+        let _ = tasks.push(&mut self.doubler);
+        let _ = tasks.push(&mut self.countdown);
+        let _ = tasks.push(&mut self.motor);
+        Executive::new(
+            schedule,
+            tasks,
+            platform,
+            VirtualClock::new(10_000),
+            enforcement,
+        )
+        .expect("executive")
+    }
+}
+
 #[test]
 fn ten_thousand_frames_allocate_nothing_after_start_up() {
-    let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
     let mut bus = Bus::default();
-    let (mut p, mut d, mut c, mut m) = (
-        Producer,
-        Doubler {
-            seen: 0,
-            degraded: false,
-        },
-        Countdown { remaining: 0 },
-        MotorOut,
-    );
-    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
-    let _ = tasks.push(&mut p);
-    let _ = tasks.push(&mut d);
-    let _ = tasks.push(&mut c);
-    let _ = tasks.push(&mut m);
-    let mut exec = Executive::new(
-        schedule,
-        tasks,
-        StdPlatform,
-        VirtualClock::new(10_000),
-        Enforcement::CountOnly,
-    )
-    .expect("executive");
+    let mut tasks = Tasks::new();
+    let mut exec = tasks.executive(StdPlatform, Enforcement::CountOnly);
     accounting::reset();
     accounting::set_slot(0);
     for _ in 0..10_000 {
@@ -241,34 +263,13 @@ impl Platform for &ScriptedPlatform {
 type Counts = Vec<(u64, u64, u64, u64)>;
 
 fn run_policy_case(overrunning_slot: usize, frames: u64) -> (Bus, Counts, Mode) {
-    let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
     let platform = ScriptedPlatform::new();
     let mut d = [50_000u64; 8];
     d[overrunning_slot] = 5_000_000; // 5 ms, over every budget
     platform.durations.set(d);
     let mut bus = Bus::default();
-    let (mut p, mut dd, mut c, mut m) = (
-        Producer,
-        Doubler {
-            seen: 0,
-            degraded: false,
-        },
-        Countdown { remaining: 0 },
-        MotorOut,
-    );
-    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
-    let _ = tasks.push(&mut p);
-    let _ = tasks.push(&mut dd);
-    let _ = tasks.push(&mut c);
-    let _ = tasks.push(&mut m);
-    let mut exec = Executive::new(
-        schedule,
-        tasks,
-        &platform,
-        VirtualClock::new(10_000),
-        Enforcement::Enforce,
-    )
-    .expect("executive");
+    let mut tasks = Tasks::new();
+    let mut exec = tasks.executive(&platform, Enforcement::Enforce);
     for _ in 0..frames {
         exec.run_frame(&mut bus);
     }
@@ -320,32 +321,11 @@ fn safe_mode_stops_the_motors_and_keeps_the_sensors() {
 
 #[test]
 fn count_only_changes_nothing() {
-    let schedule = Schedule::build(10_000, 500, &specs()).expect("fits");
     let platform = ScriptedPlatform::new();
     platform.durations.set([5_000_000; 8]);
     let mut bus = Bus::default();
-    let (mut p, mut dd, mut c, mut m) = (
-        Producer,
-        Doubler {
-            seen: 0,
-            degraded: false,
-        },
-        Countdown { remaining: 0 },
-        MotorOut,
-    );
-    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
-    let _ = tasks.push(&mut p);
-    let _ = tasks.push(&mut dd);
-    let _ = tasks.push(&mut c);
-    let _ = tasks.push(&mut m);
-    let mut exec = Executive::new(
-        schedule,
-        tasks,
-        &platform,
-        VirtualClock::new(10_000),
-        Enforcement::CountOnly,
-    )
-    .expect("executive");
+    let mut tasks = Tasks::new();
+    let mut exec = tasks.executive(&platform, Enforcement::CountOnly);
     for _ in 0..20 {
         exec.run_frame(&mut bus);
     }

@@ -40,6 +40,7 @@ pub enum Topic {
     Health,
     Scheduler,
     GroundTruth,
+    SimTf,
 }
 
 pub struct TopicInfo {
@@ -51,7 +52,7 @@ pub struct TopicInfo {
 }
 
 impl Topic {
-    pub const ALL: [Topic; 13] = [
+    pub const ALL: [Topic; 14] = [
         Topic::RawLidar,
         Topic::RawImu,
         Topic::RawCan,
@@ -65,6 +66,7 @@ impl Topic {
         Topic::Health,
         Topic::Scheduler,
         Topic::GroundTruth,
+        Topic::SimTf,
     ];
 
     /// MCAP channel id.
@@ -114,6 +116,13 @@ impl Topic {
                 "/sim/ground_truth",
                 "foxglove.PoseInFrame",
                 POSE_IN_FRAME,
+                Role::Sim,
+            ),
+            // world -> odom: the simulated rover starts at the world origin.
+            Topic::SimTf => (
+                "/sim/tf",
+                "foxglove.FrameTransform",
+                FRAME_TRANSFORM,
                 Role::Sim,
             ),
         };

@@ -6,8 +6,9 @@ pub mod socketcan;
 pub mod udp_lidar;
 
 use std::net::SocketAddr;
+use std::sync::Arc;
 
-use crate::{CanBus, HalError, Hardware, ImuPort, LidarSource};
+use crate::{CanBus, HalError, Hardware, ImuPort, LidarSource, TimeSource};
 
 /// Where the devices are.
 #[derive(Clone, Debug)]
@@ -34,15 +35,15 @@ impl RealHardware {
             v.parse()
                 .map_err(|e| HalError::Config(format!("devices.{key} = \"{v}\": {e}")))
         };
-        crate::real::clock::start();
+        let time: Arc<dyn TimeSource> = Arc::new(MonotonicTime::start());
         Ok(RealHardware {
             lidar: udp_lidar::UdpLidar::bind(
                 addr("lidar_bind", &s.lidar_bind)?,
                 addr("lidar_sensor", &s.lidar_sensor)?,
-                clock::now_ns,
+                time.clone(),
             )?,
-            imu: serial_imu::SerialImu::open(&s.imu_port, s.imu_baud, clock::now_ns)?,
-            can: socketcan::SocketCan::open(&s.can_interface, clock::now_ns)?,
+            imu: serial_imu::SerialImu::open(&s.imu_port, s.imu_baud, time.clone())?,
+            can: socketcan::SocketCan::open(&s.can_interface, time)?,
         })
     }
 }
@@ -59,29 +60,41 @@ impl Hardware for RealHardware {
     }
 }
 
-/// Receive-time clock shared by the real transports.
-pub mod clock {
-    use std::sync::atomic::{AtomicU64, Ordering};
+/// `CLOCK_MONOTONIC` nanoseconds since [`MonotonicTime::start`].
+pub struct MonotonicTime {
+    origin: u64,
+}
 
-    static ORIGIN: AtomicU64 = AtomicU64::new(0);
+fn monotonic() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: valid out-pointer; CLOCK_MONOTONIC always exists on Linux.
+    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
 
-    fn monotonic() -> u64 {
-        let mut ts = libc::timespec {
-            tv_sec: 0,
-            tv_nsec: 0,
-        };
-        // SAFETY: valid out-pointer; CLOCK_MONOTONIC always exists on Linux.
-        unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
-        ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+impl MonotonicTime {
+    /// Time zero is now.
+    pub fn start() -> Self {
+        MonotonicTime {
+            origin: monotonic(),
+        }
     }
+}
 
-    /// Set time zero to now.
-    pub fn start() {
-        ORIGIN.store(monotonic(), Ordering::Relaxed);
+impl TimeSource for MonotonicTime {
+    fn now_ns(&self) -> u64 {
+        monotonic().saturating_sub(self.origin)
     }
+}
 
-    /// Nanoseconds since [`start`].
-    pub fn now_ns() -> u64 {
-        monotonic().saturating_sub(ORIGIN.load(Ordering::Relaxed))
+/// A time source that always reads the same time (tests).
+pub struct FixedTime(pub u64);
+
+impl TimeSource for FixedTime {
+    fn now_ns(&self) -> u64 {
+        self.0
     }
 }

@@ -11,7 +11,7 @@ const READ_CHUNK: usize = 4096;
 pub struct SerialImu {
     port: Box<dyn serialport::SerialPort>,
     buf: Box<[u8; READ_CHUNK]>,
-    clock: fn() -> u64,
+    time: std::sync::Arc<dyn crate::TimeSource>,
 }
 
 fn io(source: std::io::Error) -> HalError {
@@ -22,7 +22,11 @@ fn io(source: std::io::Error) -> HalError {
 }
 
 impl SerialImu {
-    pub fn open(path: &str, baud: u32, clock: fn() -> u64) -> Result<Self, HalError> {
+    pub fn open(
+        path: &str,
+        baud: u32,
+        time: std::sync::Arc<dyn crate::TimeSource>,
+    ) -> Result<Self, HalError> {
         let port = serialport::new(path, baud)
             .timeout(Duration::ZERO)
             .open()
@@ -33,7 +37,7 @@ impl SerialImu {
         Ok(SerialImu {
             port,
             buf: Box::new([0; READ_CHUNK]),
-            clock,
+            time,
         })
     }
 }
@@ -51,7 +55,7 @@ impl ImuPort for SerialImu {
         match self.port.read(&mut self.buf[..n]) {
             Ok(0) => Ok(()),
             Ok(got) => {
-                sink.input(Device::Imu, (self.clock)(), &self.buf[..got]);
+                sink.input(Device::Imu, self.time.now_ns(), &self.buf[..got]);
                 Ok(())
             }
             Err(e)
@@ -68,5 +72,75 @@ impl ImuPort for SerialImu {
 
     fn write(&mut self, bytes: &[u8]) -> Result<(), HalError> {
         self.port.write_all(bytes).map_err(io)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Collect(Vec<u8>);
+    impl InputSink for Collect {
+        fn input(&mut self, d: Device, _t: u64, bytes: &[u8]) {
+            assert_eq!(d, Device::Imu);
+            self.0.extend_from_slice(bytes);
+        }
+    }
+
+    /// A pseudo-terminal pair stands in for the MTi's serial line.
+    fn pty() -> (std::fs::File, String) {
+        use std::os::fd::FromRawFd;
+        // SAFETY: plain libc calls on a descriptor this function owns; the
+        // name returned by ptsname is copied before any other pty call.
+        unsafe {
+            let master = libc::posix_openpt(libc::O_RDWR | libc::O_NOCTTY);
+            assert!(master >= 0, "posix_openpt");
+            assert_eq!(libc::grantpt(master), 0);
+            assert_eq!(libc::unlockpt(master), 0);
+            let name = std::ffi::CStr::from_ptr(libc::ptsname(master))
+                .to_string_lossy()
+                .into_owned();
+            (std::fs::File::from_raw_fd(master), name)
+        }
+    }
+
+    #[test]
+    fn bytes_written_by_the_device_are_received_and_commands_sent() {
+        let (mut device, path) = pty();
+        let mut imu = SerialImu::open(
+            &path,
+            921_600,
+            std::sync::Arc::new(crate::real::FixedTime(42)),
+        )
+        .expect("open pty");
+        let mut sink = Collect(Vec::new());
+        imu.poll(0, &mut sink).expect("poll");
+        assert!(sink.0.is_empty());
+        let frame = [0xFA, 0xFF, 0x30, 0x00, 0xD1];
+        device.write_all(&frame).expect("device writes");
+        for _ in 0..100 {
+            imu.poll(0, &mut sink).expect("poll");
+            if sink.0.len() >= frame.len() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        assert_eq!(sink.0, frame);
+        imu.write(&[0xFA, 0xFF, 0x10, 0x00, 0xF1]).expect("command");
+        let mut got = [0u8; 5];
+        device.read_exact(&mut got).expect("device reads");
+        assert_eq!(got, [0xFA, 0xFF, 0x10, 0x00, 0xF1]);
+    }
+
+    #[test]
+    fn a_missing_port_is_named() {
+        let e = SerialImu::open(
+            "/dev/no-such-imu",
+            115_200,
+            std::sync::Arc::new(crate::real::FixedTime(0)),
+        )
+        .err()
+        .map(|e| e.to_string());
+        assert!(e.unwrap_or_default().contains("/dev/no-such-imu"));
     }
 }

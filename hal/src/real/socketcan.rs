@@ -13,7 +13,7 @@ const MAX_PER_POLL: usize = 256;
 
 pub struct SocketCan {
     fd: libc::c_int,
-    clock: fn() -> u64,
+    time: std::sync::Arc<dyn crate::TimeSource>,
 }
 
 fn io_err(source: io::Error) -> HalError {
@@ -24,7 +24,10 @@ fn io_err(source: io::Error) -> HalError {
 }
 
 impl SocketCan {
-    pub fn open(interface: &str, clock: fn() -> u64) -> Result<Self, HalError> {
+    pub fn open(
+        interface: &str,
+        time: std::sync::Arc<dyn crate::TimeSource>,
+    ) -> Result<Self, HalError> {
         let name = CString::new(interface).map_err(|_| {
             HalError::Config(format!(
                 "devices.can_interface = \"{interface}\": contains a NUL byte"
@@ -67,7 +70,7 @@ impl SocketCan {
             unsafe { libc::close(fd) };
             return Err(io_err(e));
         }
-        Ok(SocketCan { fd, clock })
+        Ok(SocketCan { fd, time })
     }
 }
 
@@ -93,7 +96,7 @@ impl CanBus for SocketCan {
                 };
             }
             // A short read is recorded as it is; the driver counts it malformed.
-            sink.input(Device::Can, (self.clock)(), &buf[..n as usize]);
+            sink.input(Device::Can, self.time.now_ns(), &buf[..n as usize]);
         }
         Ok(())
     }
@@ -119,7 +122,7 @@ mod tests {
 
     #[test]
     fn a_missing_interface_is_named() {
-        let e = SocketCan::open("nosuchcan7", || 0)
+        let e = SocketCan::open("nosuchcan7", std::sync::Arc::new(crate::real::FixedTime(0)))
             .err()
             .map(|e| e.to_string());
         let e = e.unwrap_or_default();

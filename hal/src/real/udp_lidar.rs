@@ -21,16 +21,16 @@ pub struct UdpLidar {
     /// Datagrams dropped because the per-poll limit was reached were left in
     /// the socket buffer; this counts polls that hit the limit.
     pub saturated_polls: u64,
-    clock: fn() -> u64,
+    time: std::sync::Arc<dyn crate::TimeSource>,
 }
 
 impl UdpLidar {
     /// Bind `local` (e.g. `0.0.0.0:2368`) and accept only `sensor`.
-    /// `clock` gives receive times in the executive's time base.
+    /// `time` stamps each datagram on receipt.
     pub fn bind(
         local: SocketAddr,
         sensor: SocketAddr,
-        clock: fn() -> u64,
+        time: std::sync::Arc<dyn crate::TimeSource>,
     ) -> Result<Self, HalError> {
         let io = |source| HalError::Io {
             device: "lidar",
@@ -44,7 +44,7 @@ impl UdpLidar {
             buf: Box::new([0; MAX_DATAGRAM]),
             foreign: 0,
             saturated_polls: 0,
-            clock,
+            time,
         })
     }
 
@@ -62,7 +62,7 @@ impl LidarSource for UdpLidar {
                         self.foreign += 1;
                         continue;
                     }
-                    sink.input(Device::Lidar, (self.clock)(), &self.buf[..n]);
+                    sink.input(Device::Lidar, self.time.now_ns(), &self.buf[..n]);
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => return Ok(()),
                 Err(e) if e.kind() == ErrorKind::Interrupted => continue,
@@ -97,7 +97,7 @@ mod tests {
         let mut lidar = UdpLidar::bind(
             "127.0.0.1:0".parse().expect("addr"),
             sensor.local_addr().expect("addr"),
-            || 7,
+            std::sync::Arc::new(crate::real::FixedTime(7)),
         )
         .expect("bind");
         let to = lidar.local_addr().expect("addr");
