@@ -16,5 +16,7 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
 cargo clippy --workspace --all-targets --locked -- -D warnings
+echo "== the executive's core without std"
+cargo check -p speleo-scheduler --no-default-features --locked
 echo "== cargo test"
 cargo test --workspace --locked
