@@ -9,7 +9,9 @@
 
 pub mod can;
 pub mod cia402;
+pub mod hdl32e;
 pub mod outbox;
+pub mod pcap;
 pub mod real;
 pub mod replay;
 pub mod sim;

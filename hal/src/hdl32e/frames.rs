@@ -1,0 +1,165 @@
+//! Assembling packets into frames (revolutions).
+//!
+//! A new frame starts at the first block whose azimuth, measured from the cut
+//! angle, is smaller than the previous block's: the scan crossed the cut
+//! angle. Point times are made relative to the first firing of the frame.
+//! Zero-range returns are dropped by the decoder. Packets whose timestamp goes
+//! backwards are dropped and counted; gaps in the timestamps count as lost
+//! packets.
+
+use super::decode::{Decoder, Point};
+use super::packet::DataPacket;
+use super::{BLOCKS, BLOCK_PERIOD_NS};
+
+/// Nominal time between two data packets.
+pub const PACKET_PERIOD_US: f64 = BLOCKS as f64 * BLOCK_PERIOD_NS / 1000.0;
+const HOUR_US: i64 = 3_600_000_000;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameCounters {
+    pub packets: u64,
+    pub frames: u64,
+    pub points: u64,
+    /// Points that did not fit in the frame buffer.
+    pub dropped_points: u64,
+    /// Packets missing according to the timestamps.
+    pub lost_packets: u64,
+    /// Packets older than the previous one (dropped).
+    pub out_of_order: u64,
+}
+
+/// A completed frame.
+#[derive(Debug)]
+pub struct Frame<'a> {
+    pub index: u64,
+    /// Time of the frame's first firing, microseconds past the hour.
+    pub start_us: f64,
+    pub points: &'a [Point],
+}
+
+pub struct FrameAssembler {
+    decoder: Decoder,
+    cut: u16,
+    points: Vec<Point>,
+    /// Relative azimuth of the previous block, if any.
+    last_rel: Option<u32>,
+    last_ts: Option<u32>,
+    start_us: Option<f64>,
+    /// Hours added to timestamps after wraps, so time keeps increasing.
+    hours: i64,
+    index: u64,
+    pub counters: FrameCounters,
+}
+
+impl FrameAssembler {
+    /// `cut_deg`: azimuth at which frames are split; `capacity`: most points
+    /// per frame (allocated now, never grown).
+    pub fn new(decoder: Decoder, cut_deg: f64, capacity: usize) -> Self {
+        let cut = ((cut_deg.rem_euclid(360.0)) * 100.0).round() as u32 % 36000;
+        FrameAssembler {
+            decoder,
+            cut: cut as u16,
+            points: Vec::with_capacity(capacity),
+            last_rel: None,
+            last_ts: None,
+            start_us: None,
+            hours: 0,
+            index: 0,
+            counters: FrameCounters::default(),
+        }
+    }
+
+    /// Add a packet; `on_frame` is called for each frame it completes.
+    pub fn push(&mut self, p: &DataPacket, mut on_frame: impl FnMut(&Frame<'_>)) {
+        if let Some(last) = self.last_ts {
+            let mut dt = p.timestamp_us as i64 - last as i64;
+            if dt < -HOUR_US / 2 {
+                // The microseconds-past-the-hour counter wrapped.
+                self.hours += 1;
+                dt += HOUR_US;
+            } else if dt < 0 {
+                self.counters.out_of_order += 1;
+                return;
+            }
+            let missing = (dt as f64 / PACKET_PERIOD_US).round() as i64 - 1;
+            if missing > 0 {
+                self.counters.lost_packets += missing as u64;
+            }
+        }
+        self.last_ts = Some(p.timestamp_us);
+        self.counters.packets += 1;
+        let packet_us = p.timestamp_us as f64 + (self.hours * HOUR_US) as f64;
+
+        // Blocks of this packet that begin a new frame.
+        let mut first_block_of_new = None;
+        for (b, blk) in p.blocks.iter().enumerate() {
+            let rel = super::decode::azimuth_step(self.cut, blk.azimuth);
+            if self.last_rel.is_some_and(|l| rel < l) && first_block_of_new.is_none() {
+                first_block_of_new = Some(b);
+            }
+            self.last_rel = Some(rel);
+        }
+        let split = first_block_of_new.unwrap_or(BLOCKS);
+        let block_us = |b: u8| packet_us + b as f64 * BLOCK_PERIOD_NS / 1000.0;
+        if self.start_us.is_none() {
+            self.start_us = Some(packet_us);
+        }
+        let mut lost = 0u64;
+        let mut emitted = false;
+        let decoder = &self.decoder;
+        let points = &mut self.points;
+        let mut start = self.start_us.unwrap_or(packet_us);
+        decoder.decode_with(p, |mut pt| {
+            if pt.block as usize >= split && !emitted {
+                emitted = true;
+                self.index += 1;
+                self.counters.frames += 1;
+                self.counters.points += points.len() as u64;
+                on_frame(&Frame {
+                    index: self.index - 1,
+                    start_us: start,
+                    points,
+                });
+                points.clear();
+                start = block_us(split as u8);
+            }
+            pt.time = ((block_us(0) - start) * 1e-6) as f32 + pt.time;
+            if points.len() < points.capacity() {
+                points.push(pt);
+            } else {
+                lost += 1;
+            }
+        });
+        if split < BLOCKS && !emitted {
+            // The frame ended at a block with no returns at all.
+            self.index += 1;
+            self.counters.frames += 1;
+            self.counters.points += self.points.len() as u64;
+            on_frame(&Frame {
+                index: self.index - 1,
+                start_us: start,
+                points: &self.points,
+            });
+            self.points.clear();
+            start = block_us(split as u8);
+        }
+        self.start_us = Some(start);
+        self.counters.dropped_points += lost;
+    }
+
+    /// Emit the partial frame in progress (end of a capture).
+    pub fn flush(&mut self, mut on_frame: impl FnMut(&Frame<'_>)) {
+        if self.points.is_empty() {
+            return;
+        }
+        self.counters.frames += 1;
+        self.counters.points += self.points.len() as u64;
+        on_frame(&Frame {
+            index: self.index,
+            start_us: self.start_us.unwrap_or(0.0),
+            points: &self.points,
+        });
+        self.index += 1;
+        self.points.clear();
+    }
+}
