@@ -10,6 +10,7 @@
 pub mod can;
 pub mod cia402;
 pub mod hdl32e;
+pub mod mtdata2;
 pub mod outbox;
 pub mod pcap;
 pub mod real;

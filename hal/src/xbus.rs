@@ -122,47 +122,34 @@ pub struct TruncatedItem {
     pub offset: usize,
 }
 
-fn f32s<const N: usize>(d: &[u8]) -> Option<[f32; N]> {
-    if d.len() != 4 * N {
-        return None;
-    }
-    let mut out = [0f32; N];
-    for (i, c) in d.chunks_exact(4).enumerate() {
-        out[i] = f32::from_be_bytes([c[0], c[1], c[2], c[3]]);
-    }
-    Some(out)
-}
-
-/// Parse an MTData2 payload. Unknown identifiers, and known ones with an
-/// unexpected size, are skipped by their size field.
+/// Parse an MTData2 payload into the items the on-board software uses, in
+/// any precision. Unknown identifiers and known ones with an unexpected size
+/// are skipped by their size field.
 pub fn parse_mtdata2(payload: &[u8]) -> Result<ImuData, TruncatedItem> {
+    use crate::mtdata2::{items, Item, Kind};
     let mut out = ImuData::default();
-    let mut i = 0;
-    while i < payload.len() {
-        if i + 3 > payload.len() {
-            return Err(TruncatedItem { offset: i });
-        }
-        let id = u16::from_be_bytes([payload[i], payload[i + 1]]);
-        let size = payload[i + 2] as usize;
-        let Some(d) = payload.get(i + 3..i + 3 + size) else {
-            return Err(TruncatedItem { offset: i });
-        };
-        match id {
-            did::PACKET_COUNTER if size == 2 => {
-                out.packet_counter = Some(u16::from_be_bytes([d[0], d[1]]))
-            }
-            did::SAMPLE_TIME_FINE if size == 4 => {
-                out.sample_time_fine = Some(u32::from_be_bytes([d[0], d[1], d[2], d[3]]))
-            }
-            did::QUATERNION => out.quaternion = f32s::<4>(d).or(out.quaternion),
-            did::ACCELERATION => out.acceleration = f32s::<3>(d).or(out.acceleration),
-            did::RATE_OF_TURN => out.rate_of_turn = f32s::<3>(d).or(out.rate_of_turn),
-            did::STATUS_WORD if size == 4 => {
-                out.status_word = Some(u32::from_be_bytes([d[0], d[1], d[2], d[3]]))
-            }
+    for it in items(payload) {
+        let (_, item) = it.map_err(|t| TruncatedItem { offset: t.offset })?;
+        match item {
+            Item::PacketCounter(c) => out.packet_counter = Some(c),
+            Item::SampleTimeFine(t) => out.sample_time_fine = Some(t),
+            Item::StatusWord(w) => out.status_word = Some(w),
+            Item::Numbers {
+                kind, values: v, ..
+            } => match kind {
+                Kind::Quaternion => {
+                    out.quaternion = Some([v[0] as f32, v[1] as f32, v[2] as f32, v[3] as f32])
+                }
+                Kind::Acceleration => {
+                    out.acceleration = Some([v[0] as f32, v[1] as f32, v[2] as f32])
+                }
+                Kind::RateOfTurn => {
+                    out.rate_of_turn = Some([v[0] as f32, v[1] as f32, v[2] as f32])
+                }
+                _ => {}
+            },
             _ => {}
         }
-        i += 3 + size;
     }
     Ok(out)
 }

@@ -1,0 +1,56 @@
+//! HDL-32E decoding speed on the real capture (../shared/data/velodyne), in
+//! points per second on one thread: packets parsed and decoded into a
+//! preallocated point buffer, as the on-board driver does.
+
+use std::path::Path;
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use speleo_hal::hdl32e::{Calibration, DataPacket, Decoder, Interpolation, Point, DATA_PORT};
+
+fn bench(c: &mut Criterion) {
+    let pcap = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/velodyne/monterey-first-100-packets.pcap");
+    if !pcap.exists() {
+        eprintln!("skipped: {} not found (shared data absent)", pcap.display());
+        return;
+    }
+    let (dgrams, _) = speleo_hal::pcap::read_udp(&pcap).expect("capture");
+    let packets: Vec<Vec<u8>> = dgrams
+        .into_iter()
+        .filter(|d| d.dst.port() == DATA_PORT)
+        .map(|d| d.payload)
+        .collect();
+    let cal = Calibration::nominal();
+    let mut points: Vec<Point> = Vec::with_capacity(1_100_000);
+    let mut total = 0u64;
+    let dec = Decoder::new(&cal);
+    for b in &packets {
+        if let Ok(p) = DataPacket::parse(b) {
+            dec.decode_with(&p, |_| total += 1);
+        }
+    }
+    let mut g = c.benchmark_group("hdl32e_decode");
+    g.throughput(Throughput::Elements(total));
+    for (name, mode) in [
+        ("continuous", Interpolation::Continuous),
+        ("fixed_pairs", Interpolation::FixedPairs),
+        ("veloview", Interpolation::VeloView),
+    ] {
+        let dec = Decoder::new(&cal).with_interpolation(mode);
+        g.bench_function(format!("{name}_capture_{total}_points"), |b| {
+            b.iter(|| {
+                points.clear();
+                for bytes in &packets {
+                    if let Ok(p) = DataPacket::parse(bytes) {
+                        dec.decode_into(&p, &mut points);
+                    }
+                }
+                std::hint::black_box(points.len())
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
