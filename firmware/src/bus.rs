@@ -3,6 +3,7 @@
 
 use speleo_hal::cia402::DriveState;
 use speleo_hal::xbus::XbusCounters;
+use speleo_hal::xsens_config::ConfigState;
 use speleo_hal::{CanFrame, Device, InputSink};
 use speleo_scheduler::mailbox::{Fifo, Latest, Ring};
 use speleo_scheduler::Mode;
@@ -174,6 +175,10 @@ pub struct Bus {
     pub command: Latest<WheelCommand>,
     /// Frames to put on the CAN bus at the start of the next frame.
     pub can_tx: Fifo<CanFrame, 32>,
+    /// Xbus messages for the IMU, sent at the start of the next frame.
+    pub imu_tx: Fifo<heapless::Vec<u8, 256>, 4>,
+    /// Where the IMU's configuration exchange is.
+    pub imu_config: ConfigState,
     pub health: Latest<HealthReport>,
     pub counters: Counters,
     /// Set by health when the executive must switch to the safe schedule.
@@ -191,6 +196,8 @@ impl Bus {
             odom: Latest::new(),
             command: Latest::new(),
             can_tx: Fifo::new(),
+            imu_tx: Fifo::new(),
+            imu_config: ConfigState::GoingToConfig,
             health: Latest::new(),
             counters: Counters::default(),
             safe_mode_request: false,

@@ -120,7 +120,8 @@ pub fn run<C: FrameClock>(
     let r = &cfg.rover;
     let mut bus = Bus::new();
     let mut t_io = io::IoTask::new(hw);
-    let mut t_imu = imu_driver::ImuDriver::default();
+    // 100 Hz outputs; 100 ms for each acknowledgement, 5 tries.
+    let mut t_imu = imu_driver::ImuDriver::new(100, 100_000_000, 5);
     let mut t_drive = drive_driver::DriveDriver::default();
     let mut t_odo = odometry::OdometryTask::new(OdometryParams {
         wheel_radius_m: r.wheel_radius_m,

@@ -17,6 +17,7 @@ pub mod real;
 pub mod replay;
 pub mod sim;
 pub mod xbus;
+pub mod xsens_config;
 
 use thiserror::Error;
 

@@ -30,6 +30,7 @@ pub enum Topic {
     RawLidar,
     RawImu,
     RawCan,
+    ImuTx,
     CanTx,
     Imu,
     Drives,
@@ -52,10 +53,11 @@ pub struct TopicInfo {
 }
 
 impl Topic {
-    pub const ALL: [Topic; 14] = [
+    pub const ALL: [Topic; 15] = [
         Topic::RawLidar,
         Topic::RawImu,
         Topic::RawCan,
+        Topic::ImuTx,
         Topic::CanTx,
         Topic::Imu,
         Topic::Drives,
@@ -83,6 +85,7 @@ impl Topic {
             Topic::RawLidar => ("/raw/lidar", "speleo.RawInput", RAW_INPUT, Role::Input),
             Topic::RawImu => ("/raw/imu", "speleo.RawInput", RAW_INPUT, Role::Input),
             Topic::RawCan => ("/raw/can", "speleo.RawInput", RAW_INPUT, Role::Input),
+            Topic::ImuTx => ("/imu/tx", "speleo.RawInput", RAW_INPUT, Role::Output),
             Topic::CanTx => ("/can/tx", "speleo.CanFrames", CAN_FRAMES, Role::Output),
             Topic::Imu => ("/imu", "speleo.ImuSample", IMU_SAMPLE, Role::Output),
             Topic::Drives => (
@@ -159,7 +162,7 @@ const DRIVE_FEEDBACK: &str = r#"{"title":"speleo.DriveFeedback","description":"C
 
 const WHEEL_COMMAND: &str = r#"{"title":"speleo.WheelCommand","description":"Body command and wheel speeds from the path follower","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"speed":{"type":"number"},"yaw_rate":{"type":"number"},"wheel_speeds":{"type":"array","items":{"type":"number"}},"segment":{"type":"integer"},"done":{"type":"boolean"}}}"#;
 
-const HEALTH: &str = r#"{"title":"speleo.Health","description":"Device freshness and decoder counters","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"mode":{"type":"string"},"stale":{"type":"array","items":{"type":"string"}},"drive_faults":{"type":"integer"},"counters":{"type":"object","additionalProperties":{"type":"integer"}}}}"#;
+const HEALTH: &str = r#"{"title":"speleo.Health","description":"Device freshness and decoder counters","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"mode":{"type":"string"},"imu_config":{"type":"string"},"stale":{"type":"array","items":{"type":"string"}},"drive_faults":{"type":"integer"},"counters":{"type":"object","additionalProperties":{"type":"integer"}}}}"#;
 
 const SCHEDULER: &str = r#"{"title":"speleo.SchedulerTelemetry","description":"Execution-time statistics per task, measured on the monotonic clock","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frames":{"type":"integer"},"slips":{"type":"integer"},"mode":{"type":"string"},"tasks":{"type":"array","items":{"type":"object","properties":{"name":{"type":"string"},"runs":{"type":"integer"},"overruns":{"type":"integer"},"max_us":{"type":"number"},"p50_us":{"type":"number"},"p99_us":{"type":"number"},"p999_us":{"type":"number"}}}}}}"#;
 

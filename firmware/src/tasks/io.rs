@@ -28,6 +28,11 @@ impl Task<Bus> for IoTask<'_> {
                 bus.counters.hal_errors += 1;
             }
         }
+        while let Some(m) = bus.imu_tx.pop() {
+            if self.hw.imu().write(&m).is_err() {
+                bus.counters.hal_errors += 1;
+            }
+        }
         bus.raw.clear();
         let raw = &mut bus.raw;
         let errors = [

@@ -64,6 +64,7 @@ struct Stamped<T> {
 struct HealthJson<'a, S: Serialize> {
     timestamp: Time,
     mode: &'a str,
+    imu_config: &'a str,
     stale: S,
     drive_faults: u8,
     counters: CountersJson,
@@ -108,6 +109,19 @@ impl From<&Counters> for CountersJson {
     }
 }
 
+pub fn imu_config_name(s: speleo_hal::xsens_config::ConfigState) -> &'static str {
+    use speleo_hal::xsens_config::{ConfigFailure, ConfigState::*};
+    match s {
+        GoingToConfig => "going_to_config",
+        SettingOutputs => "setting_outputs",
+        GoingToMeasurement => "going_to_measurement",
+        Measuring => "measuring",
+        Failed(ConfigFailure::DeviceError { .. }) => "failed_device_error",
+        Failed(ConfigFailure::NoAnswer { .. }) => "failed_no_answer",
+        Failed(ConfigFailure::ConfigMismatch) => "failed_config_mismatch",
+    }
+}
+
 pub fn mode_name(m: Mode) -> &'static str {
     match m {
         Mode::Nominal => "nominal",
@@ -132,6 +146,10 @@ impl Task<Bus> for RecorderTask<'_> {
                 e.receive_time_ns,
                 bytes,
             );
+        }
+
+        for m in bus.imu_tx.iter() {
+            tap.raw(Topic::ImuTx, "imu", frame, now, now, m);
         }
 
         if !bus.can_tx.is_empty() {
@@ -242,6 +260,7 @@ impl Task<Bus> for RecorderTask<'_> {
                 } else {
                     mode_name(cx.mode)
                 },
+                imu_config: imu_config_name(bus.imu_config),
                 stale: SeqOf::new(
                     SOURCE_NAMES
                         .iter()

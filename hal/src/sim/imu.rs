@@ -4,8 +4,10 @@
 
 use super::noise::Noise;
 use super::rover::Rover;
+use crate::mtdata2::Precision;
 use crate::outbox::Outbox;
-use crate::xbus::{self, did, Mtdata2Builder};
+use crate::xbus::{self, XbusDecoder};
+use crate::xsens_config::{OutputConfig, MID_SET_OUTPUT_CONFIGURATION};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImuParams {
@@ -50,7 +52,25 @@ pub struct SimImu {
     /// The device's own yaw estimate (integrated gyro: drifts with the bias).
     yaw_estimate: f64,
     last_sample_ns: u64,
-    outbox: Outbox<16, 128>,
+    outbox: Outbox<16, 256>,
+    /// Streaming (measurement mode) or waiting for configuration.
+    measuring: bool,
+    config: OutputConfig,
+    commands: XbusDecoder,
+    /// Time of the latest sample, for stamping answers to commands.
+    now_ns: u64,
+    sample: usize,
+}
+
+/// Delay between a command and its acknowledgement.
+const ANSWER_NS: u64 = 500_000;
+
+/// Data ids the twin can produce (any precision / coordinate bits).
+fn supported(id: u16) -> bool {
+    matches!(
+        id & 0xFFF0,
+        0x1020 | 0x1060 | 0x2010 | 0x4020 | 0x8020 | 0xE020
+    )
 }
 
 impl SimImu {
@@ -72,11 +92,61 @@ impl SimImu {
             yaw_estimate: 0.0,
             last_sample_ns: 0,
             outbox: Outbox::new(),
+            // A powered MTi streams its stored configuration.
+            measuring: true,
+            config: OutputConfig::speleo(100),
+            commands: XbusDecoder::new(),
+            now_ns: 0,
+            sample: 0,
         }
     }
 
-    pub(crate) fn outbox(&mut self) -> &mut Outbox<16, 128> {
+    pub(crate) fn outbox(&mut self) -> &mut Outbox<16, 256> {
         &mut self.outbox
+    }
+
+    fn answer(&mut self, mid: u8, payload: &[u8]) {
+        let mut f: heapless::Vec<u8, 256> = heapless::Vec::new();
+        if xbus::encode_frame(mid, payload, &mut f) {
+            self.outbox.push(self.now_ns + ANSWER_NS, &f);
+        }
+    }
+
+    /// Bytes from the master on the serial line.
+    pub fn receive(&mut self, bytes: &[u8]) {
+        let mut decoder = core::mem::take(&mut self.commands);
+        let mut frames: heapless::Vec<(u8, heapless::Vec<u8, 256>), 4> = heapless::Vec::new();
+        decoder.push(bytes, &mut |f| {
+            let _ = frames.push((
+                f.mid,
+                heapless::Vec::from_slice(f.payload).unwrap_or_default(),
+            ));
+        });
+        self.commands = decoder;
+        for (mid, payload) in frames {
+            match mid {
+                xbus::MID_GOTO_CONFIG => {
+                    self.measuring = false;
+                    self.answer(mid + 1, &[]);
+                }
+                xbus::MID_GOTO_MEASUREMENT => {
+                    self.measuring = true;
+                    self.answer(mid + 1, &[]);
+                }
+                MID_SET_OUTPUT_CONFIGURATION if !self.measuring => {
+                    match OutputConfig::parse(&payload) {
+                        Ok(c) if c.entries.iter().all(|(id, _)| supported(*id)) => {
+                            self.config = c;
+                            self.answer(mid + 1, &payload);
+                        }
+                        // Invalid parameter.
+                        _ => self.answer(xbus::MID_ERROR, &[0x21]),
+                    }
+                }
+                // Invalid message (in this mode).
+                _ => self.answer(xbus::MID_ERROR, &[0x04]),
+            }
+        }
     }
 
     pub fn dropped(&self) -> u64 {
@@ -112,15 +182,56 @@ impl SimImu {
         let half = 0.5 * self.yaw_estimate;
         let q = [libm::cos(half), 0.0, 0.0, libm::sin(half)];
         self.counter = self.counter.wrapping_add(1);
-        let mut b = Mtdata2Builder::new();
-        b.u16(did::PACKET_COUNTER, self.counter)
-            .u32(did::SAMPLE_TIME_FINE, (t_ns / 100_000) as u32)
-            .f32s(did::QUATERNION, &q.map(|v| v as f32))
-            .f32s(did::ACCELERATION, &acc.map(|v| v as f32))
-            .f32s(did::RATE_OF_TURN, &gyro.map(|v| v as f32))
-            .u32(did::STATUS_WORD, 0x0000_0003);
-        let mut frame: heapless::Vec<u8, 128> = heapless::Vec::new();
-        if xbus::encode_frame(xbus::MID_MTDATA2, b.payload(), &mut frame) {
+        self.now_ns = t_ns;
+        self.sample += 1;
+        if !self.measuring {
+            return;
+        }
+        let mut payload: heapless::Vec<u8, 255> = heapless::Vec::new();
+        let rate = self.p.rate_hz.max(1) as usize;
+        for &(id, freq) in &self.config.entries {
+            // Decimate items asked for at a lower rate.
+            let every = if freq == 0xFFFF || freq == 0 {
+                1
+            } else {
+                (rate / freq as usize).max(1)
+            };
+            if self.sample % every != 0 {
+                continue;
+            }
+            let mut item = [0u8; 3 + 8 * 4];
+            let n = match id & 0xFFF0 {
+                0x1020 => {
+                    item[3..5].copy_from_slice(&self.counter.to_be_bytes());
+                    2
+                }
+                0x1060 => {
+                    item[3..7].copy_from_slice(&((t_ns / 100_000) as u32).to_be_bytes());
+                    4
+                }
+                0xE020 => {
+                    item[3..7].copy_from_slice(&3u32.to_be_bytes());
+                    4
+                }
+                group => {
+                    let values: &[f64] = match group {
+                        0x2010 => &q,
+                        0x4020 => &acc,
+                        _ => &gyro,
+                    };
+                    let p = Precision::from_id(id);
+                    for (k, v) in values.iter().enumerate() {
+                        p.write(*v, &mut item[3 + k * p.size()..]);
+                    }
+                    values.len() * p.size()
+                }
+            };
+            item[..2].copy_from_slice(&id.to_be_bytes());
+            item[2] = n as u8;
+            let _ = payload.extend_from_slice(&item[..3 + n]);
+        }
+        let mut frame: heapless::Vec<u8, 256> = heapless::Vec::new();
+        if xbus::encode_frame(xbus::MID_MTDATA2, &payload, &mut frame) {
             // The last byte arrives after the whole frame crossed the line (10 bits a byte).
             let wire_ns = frame.len() as u64 * 10 * 1_000_000_000 / self.p.baud.max(1) as u64;
             self.outbox.push(t_ns + wire_ns, &frame);

@@ -145,9 +145,8 @@ impl ImuPort for imu::SimImu {
         deliver(self.outbox(), Device::Imu, now_ns, sink);
         Ok(())
     }
-    fn write(&mut self, _bytes: &[u8]) -> Result<(), HalError> {
-        // The twin starts in measurement mode with the output configuration
-        // Speleo asks for; configuration messages need no answer yet.
+    fn write(&mut self, bytes: &[u8]) -> Result<(), HalError> {
+        self.receive(bytes);
         Ok(())
     }
 }
