@@ -1,7 +1,7 @@
 //! The mailboxes every task reads and writes: the whole data flow of one
 //! minor frame. Created once at start-up; nothing in it grows afterwards.
 
-use speleo_hal::cia402::DriveState;
+use speleo_hal::canopen::supervisor::{DrivesState, StopReasons};
 use speleo_hal::xbus::XbusCounters;
 use speleo_hal::xsens_config::ConfigState;
 use speleo_hal::{CanFrame, Device, InputSink};
@@ -18,37 +18,6 @@ pub struct ImuSample {
     pub acceleration: [f64; 3],
     pub rate_of_turn: [f64; 3],
     pub status_word: u32,
-}
-
-/// Feedback of one wheel drive.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WheelFeedback {
-    pub state: DriveState,
-    pub statusword: u16,
-    /// mrad/s at the wheel.
-    pub velocity: i32,
-    pub position: i32,
-}
-
-impl Default for WheelFeedback {
-    fn default() -> Self {
-        WheelFeedback {
-            state: DriveState::NotReadyToSwitchOn,
-            statusword: 0,
-            velocity: 0,
-            position: 0,
-        }
-    }
-}
-
-/// Feedback of all four drives.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DriveFeedback {
-    pub wheels: [WheelFeedback; 4],
-    /// Receive time of each wheel's last statusword (TPDO1); 0 = never.
-    pub status_time_ns: [u64; 4],
-    /// Receive time of each wheel's last position (TPDO2); 0 = never.
-    pub position_time_ns: [u64; 4],
 }
 
 /// Odometry pose of base_link in the odom frame.
@@ -170,7 +139,9 @@ pub const RAW_ENTRIES: usize = 2048;
 pub struct Bus {
     pub raw: RawFrame,
     pub imu: Ring<ImuSample, 32>,
-    pub drives: Latest<DriveFeedback>,
+    pub drives: Latest<DrivesState>,
+    /// Why the drive output holds the wheels at zero, every frame.
+    pub drive_stop: Latest<StopReasons>,
     pub odom: Latest<OdomPose>,
     pub command: Latest<WheelCommand>,
     /// Frames to put on the CAN bus at the start of the next frame.
@@ -193,6 +164,7 @@ impl Bus {
             raw: RawFrame::with_capacity(RAW_ARENA_BYTES, RAW_ENTRIES),
             imu: Ring::new(),
             drives: Latest::new(),
+            drive_stop: Latest::new(),
             odom: Latest::new(),
             command: Latest::new(),
             can_tx: Fifo::new(),

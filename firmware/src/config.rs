@@ -158,7 +158,9 @@ impl Default for ControlConfig {
 #[serde(default, deny_unknown_fields)]
 pub struct HealthConfig {
     pub imu_timeout_ms: u32,
-    pub drive_timeout_ms: u32,
+    /// A drive whose heartbeat (every 100 ms by default) is older than this
+    /// is lost: every wheel stops and the safe schedule starts.
+    pub drive_heartbeat_timeout_ms: u32,
     pub startup_grace_ms: u32,
     /// Enter the safe schedule when a device goes silent.
     pub safe_mode_on_stale: bool,
@@ -168,7 +170,7 @@ impl Default for HealthConfig {
     fn default() -> Self {
         HealthConfig {
             imu_timeout_ms: 50,
-            drive_timeout_ms: 50,
+            drive_heartbeat_timeout_ms: 300,
             startup_grace_ms: 500,
             safe_mode_on_stale: true,
         }
@@ -397,8 +399,8 @@ impl Config {
             "1..=60000",
         )?;
         range(
-            "health.drive_timeout_ms",
-            h.drive_timeout_ms,
+            "health.drive_heartbeat_timeout_ms",
+            h.drive_heartbeat_timeout_ms,
             1,
             60_000,
             "1..=60000",

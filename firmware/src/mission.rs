@@ -138,11 +138,16 @@ pub fn run<C: FrameClock>(
         },
     );
     let mut t_out =
-        drive_output::DriveOutput::new(cfg.control.command_timeout_ms as u64 * 1_000_000);
+        drive_output::DriveOutput::new(speleo_hal::canopen::supervisor::SupervisorParams {
+            heartbeat_timeout_ns: cfg.health.drive_heartbeat_timeout_ms as u64 * 1_000_000,
+            command_timeout_ns: cfg.control.command_timeout_ms as u64 * 1_000_000,
+            retry_ns: 200_000_000,
+            boot_grace_ns: cfg.health.startup_grace_ms as u64 * 1_000_000,
+        });
     let h = &cfg.health;
     let mut t_health = health::HealthTask::new(
         h.imu_timeout_ms as u64 * 1_000_000,
-        h.drive_timeout_ms as u64 * 1_000_000,
+        h.drive_heartbeat_timeout_ms as u64 * 1_000_000,
         h.startup_grace_ms as u64 * 1_000_000,
         h.safe_mode_on_stale,
     );

@@ -8,6 +8,7 @@
 //! and the rover all run the same decoders.
 
 pub mod can;
+pub mod canopen;
 pub mod cia402;
 pub mod hdl32e;
 pub mod mtdata2;

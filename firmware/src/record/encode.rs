@@ -164,6 +164,10 @@ pub struct WheelJson {
     pub statusword: u16,
     pub velocity_rad_s: f64,
     pub position_counts: i32,
+    pub nmt: &'static str,
+    pub profile_velocity_mode: bool,
+    pub emergencies: u32,
+    pub last_emergency: u16,
 }
 
 #[derive(Serialize)]

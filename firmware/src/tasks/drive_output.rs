@@ -1,44 +1,42 @@
-//! Turns the wheel command into CiA 402 PDOs for the next frame: the enable
-//! sequence for drives that are not yet operational, target velocities for
-//! those that are, then SYNC.
-//!
-//! Zero velocity is commanded when the executive is in safe mode, when the
-//! command is older than its timeout, or when there is no command yet.
+//! Puts the drives' commands for the next frame on the CAN bus through the
+//! CANopen supervisor: bring-up (SDO, NMT), the CiA 402 enable sequence,
+//! target velocities, SYNC. Every wheel gets zero in safe mode, without a
+//! fresh command, when a drive's heartbeat is lost or when a drive faults.
 
-use speleo_hal::cia402::{self, DriveState};
+use speleo_hal::canopen::supervisor::{DrivesState, Supervisor, SupervisorParams};
 use speleo_scheduler::{Context, Mode, Task};
 
 use crate::bus::Bus;
 
 pub struct DriveOutput {
-    command_timeout_ns: u64,
+    supervisor: Supervisor,
 }
 
 impl DriveOutput {
-    pub fn new(command_timeout_ns: u64) -> Self {
-        DriveOutput { command_timeout_ns }
+    pub fn new(p: SupervisorParams) -> Self {
+        DriveOutput {
+            supervisor: Supervisor::new(p),
+        }
     }
 }
 
 impl Task<Bus> for DriveOutput {
     fn run(&mut self, bus: &mut Bus, cx: &Context) {
+        let state = bus.drives.get().map_or(DrivesState::default(), |d| d.value);
         let command = bus
             .command
             .get()
-            .filter(|c| cx.time_ns.saturating_sub(c.stamp_ns) <= self.command_timeout_ns)
-            .filter(|_| cx.mode == Mode::Nominal)
-            .map(|c| c.value.wheel_speeds);
-        let states = bus.drives.get().map(|d| d.value.wheels.map(|w| w.state));
-        for i in 0..4 {
-            let state = states.map_or(DriveState::NotReadyToSwitchOn, |s| s[i]);
-            let controlword = state.next_enable_command();
-            let velocity = match (state, command) {
-                (DriveState::OperationEnabled, Some(w)) => (w[i] * 1000.0).round() as i32,
-                _ => 0,
-            };
-            bus.can_tx
-                .push(cia402::rpdo1(i as u8 + 1, controlword, velocity));
-        }
-        bus.can_tx.push(cia402::sync());
+            .map(|c| (c.stamp_ns, c.value.wheel_speeds));
+        let tx = &mut bus.can_tx;
+        let reasons = self.supervisor.plan(
+            cx.time_ns,
+            &state,
+            command,
+            cx.mode == Mode::Safe,
+            &mut |f| {
+                tx.push(f);
+            },
+        );
+        bus.drive_stop.publish(cx.time_ns, reasons);
     }
 }

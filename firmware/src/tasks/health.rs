@@ -46,19 +46,18 @@ impl Task<Bus> for HealthTask {
         let mut faults = 0u8;
         if let Some(d) = bus.drives.get() {
             for (w, id) in self.drives.iter().enumerate() {
-                if d.value.status_time_ns[w] != 0 {
-                    fresh.seen(*id, d.value.status_time_ns[w]);
+                let n = &d.value.nodes[w];
+                if n.heartbeat_time_ns != 0 {
+                    fresh.seen(*id, n.heartbeat_time_ns);
                 }
-                if matches!(
-                    d.value.wheels[w].state,
-                    DriveState::Fault | DriveState::FaultReactionActive
-                ) {
+                if matches!(n.state, DriveState::Fault | DriveState::FaultReactionActive) {
                     faults += 1;
                 }
             }
         }
         let stale = fresh.check(cx.time_ns);
-        if (stale != 0 && self.safe_on_stale) || faults > 0 {
+        let drive_failure = bus.drive_stop.get().is_some_and(|r| r.value.failures());
+        if (stale != 0 && self.safe_on_stale) || faults > 0 || drive_failure {
             bus.safe_mode_request = true;
         }
         bus.health.publish(

@@ -34,8 +34,11 @@ impl Task<Bus> for OdometryTask {
         bus.counters.imu_samples_lost += lost;
         if let Some(d) = bus.drives.newer_than(self.drives_seen) {
             self.drives_seen = d.seq;
-            let w = &d.value.wheels;
-            odo.wheels([w[0].position, w[1].position, w[2].position, w[3].position]);
+            let n = &d.value.nodes;
+            // Only once every drive has reported a position.
+            if n.iter().all(|n| n.position_time_ns != 0) {
+                odo.wheels([n[0].position, n[1].position, n[2].position, n[3].position]);
+            }
         }
         let pose = odo.pose();
         let q = pose.rotation.into_inner();

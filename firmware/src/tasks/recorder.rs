@@ -190,19 +190,28 @@ impl Task<Bus> for RecorderTask<'_> {
 
         if let Some(d) = bus.drives.newer_than(self.drives_seen) {
             self.drives_seen = d.seq;
-            let wheels = SeqOf::new(d.value.wheels.iter().map(|w| WheelJson {
-                state: state_name(w.state),
-                statusword: w.statusword,
-                velocity_rad_s: w.velocity as f64 * 1e-3,
-                position_counts: w.position,
+            let wheels = SeqOf::new(d.value.nodes.iter().map(|n| WheelJson {
+                state: state_name(n.state),
+                statusword: n.statusword,
+                velocity_rad_s: n.velocity as f64 * 1e-3,
+                position_counts: n.position,
+                nmt: n.nmt.map_or("unknown", nmt_name),
+                profile_velocity_mode: n.mode_set,
+                emergencies: n.emergencies,
+                last_emergency: n.last_emergency,
             }));
+            let stop = bus.drive_stop.get().map(|s| s.value).unwrap_or_default();
             #[derive(Serialize)]
-            struct Wheels<S> {
+            struct Drives<S> {
                 wheels: S,
+                stop: StopJson,
             }
             let msg = Stamped {
                 timestamp: tap.time(d.stamp_ns),
-                body: Wheels { wheels },
+                body: Drives {
+                    wheels,
+                    stop: StopJson::from(stop),
+                },
             };
             tap.emit(Topic::Drives, frame, now, d.stamp_ns, |w| {
                 serde_json::to_writer(w, &msg)
@@ -381,6 +390,43 @@ impl RecorderTask<'_> {
         tap.emit(Topic::Plan, frame, now, now, |w| {
             serde_json::to_writer(w, &msg)
         });
+    }
+}
+
+#[derive(Serialize)]
+struct StopJson {
+    holding: bool,
+    safe_mode: bool,
+    no_command: bool,
+    stale_command: bool,
+    heartbeat_lost: u8,
+    fault: u8,
+    not_ready: u8,
+    sdo_refused: u8,
+}
+
+impl From<speleo_hal::canopen::supervisor::StopReasons> for StopJson {
+    fn from(r: speleo_hal::canopen::supervisor::StopReasons) -> Self {
+        StopJson {
+            holding: r.any(),
+            safe_mode: r.safe_mode,
+            no_command: r.no_command,
+            stale_command: r.stale_command,
+            heartbeat_lost: r.heartbeat_lost,
+            fault: r.fault,
+            not_ready: r.not_ready,
+            sdo_refused: r.sdo_refused,
+        }
+    }
+}
+
+pub fn nmt_name(s: speleo_hal::canopen::NmtState) -> &'static str {
+    use speleo_hal::canopen::NmtState::*;
+    match s {
+        BootUp => "boot_up",
+        Stopped => "stopped",
+        Operational => "operational",
+        PreOperational => "pre_operational",
     }
 }
 

@@ -1,12 +1,18 @@
-//! Twins of the four CiA 402 wheel drives in profile velocity mode.
+//! Twins of the four CANopen CiA 402 wheel drives.
 //!
-//! Each drive runs the profile's state machine on the controlwords it
-//! receives, answers every SYNC with TPDO1 (statusword, velocity) and TPDO2
-//! (position) after a small per-node latency, and stops its wheel when its
-//! commands go stale (the drive's own watchdog).
+//! Each drive boots into pre-operational (boot-up message), sends a
+//! heartbeat every `heartbeat_ns`, obeys NMT commands, serves expedited SDO
+//! for its device type, heartbeat time, controlword, statusword, modes of
+//! operation and the actual values, and, when operational, runs the
+//! profile's state machine on the RPDO controlwords and answers every SYNC
+//! with TPDO1 (statusword, velocity) and TPDO2 (position). It stops its wheel
+//! when its commands go stale (the drive's own watchdog) or when it is not in
+//! profile velocity mode.
 
 use super::rover::{Rover, WHEELS};
 use crate::can::CanFrame;
+use crate::canopen::sdo::{Sdo, ABORT_NO_OBJECT, ABORT_READ_ONLY, ABORT_VALUE_RANGE};
+use crate::canopen::{self, classify, Event, NmtCommand, NmtState};
 use crate::cia402::{self, DriveState, Pdo};
 use crate::outbox::Outbox;
 
@@ -16,6 +22,10 @@ pub struct DriveParams {
     pub response_latency_ns: u64,
     /// The drive stops its wheel when no command came for this long.
     pub command_timeout_ns: u64,
+    /// Heartbeat producer time (object 0x1017).
+    pub heartbeat_ns: u64,
+    /// Time from power-on to the boot-up message.
+    pub boot_ns: u64,
 }
 
 impl Default for DriveParams {
@@ -23,9 +33,14 @@ impl Default for DriveParams {
         DriveParams {
             response_latency_ns: 150_000,
             command_timeout_ns: 200_000_000,
+            heartbeat_ns: 100_000_000,
+            boot_ns: 20_000_000,
         }
     }
 }
+
+/// Device type (0x1000): CiA 402 drive, as the real drives in the captures report.
+pub const DEVICE_TYPE: u32 = 0x0002_0192;
 
 #[derive(Clone, Copy, Debug)]
 struct Drive {
@@ -36,6 +51,11 @@ struct Drive {
     last_command_ns: Option<u64>,
     velocity: i32,
     position: i32,
+    nmt: Option<NmtState>,
+    mode: i8,
+    /// Is this drive's power (and CAN transceiver) on? Tests switch it off.
+    powered: bool,
+    next_heartbeat_ns: u64,
 }
 
 pub struct SimDrives {
@@ -43,6 +63,7 @@ pub struct SimDrives {
     drives: [Drive; WHEELS],
     outbox: Outbox<64, 16>,
     unknown_frames: u64,
+    now_ns: u64,
 }
 
 impl SimDrives {
@@ -56,9 +77,134 @@ impl SimDrives {
                 last_command_ns: None,
                 velocity: 0,
                 position: 0,
+                nmt: None,
+                mode: 0,
+                powered: true,
+                next_heartbeat_ns: 0,
             }; WHEELS],
             outbox: Outbox::new(),
             unknown_frames: 0,
+            now_ns: 0,
+        }
+    }
+
+    /// Cut or restore a drive's power (fault injection).
+    pub fn set_powered(&mut self, wheel: usize, on: bool) {
+        if let Some(d) = self.drives.get_mut(wheel) {
+            d.powered = on;
+            if !on {
+                d.nmt = None;
+                d.state = DriveState::SwitchOnDisabled;
+                d.mode = 0;
+            }
+        }
+    }
+
+    /// Put a drive in the fault state (fault injection).
+    pub fn inject_fault(&mut self, wheel: usize) {
+        if let Some(d) = self.drives.get_mut(wheel) {
+            d.state = DriveState::Fault;
+        }
+    }
+
+    fn send(&mut self, t: u64, f: &CanFrame) {
+        self.outbox.push(t, &f.to_socketcan());
+    }
+
+    /// Boot-up messages and heartbeats due by `now_ns`.
+    pub fn tick(&mut self, now_ns: u64) {
+        self.now_ns = now_ns;
+        for i in 0..WHEELS {
+            let node = i as u8 + 1;
+            let d = self.drives[i];
+            if !d.powered {
+                continue;
+            }
+            if d.nmt.is_none() {
+                if now_ns >= self.p.boot_ns {
+                    self.drives[i].nmt = Some(NmtState::PreOperational);
+                    self.drives[i].next_heartbeat_ns = now_ns + self.p.heartbeat_ns;
+                    self.send(now_ns, &canopen::heartbeat(node, NmtState::BootUp));
+                }
+                continue;
+            }
+            if now_ns >= d.next_heartbeat_ns {
+                self.drives[i].next_heartbeat_ns = d.next_heartbeat_ns + self.p.heartbeat_ns;
+                if let Some(s) = d.nmt {
+                    self.send(now_ns, &canopen::heartbeat(node, s));
+                }
+            }
+        }
+    }
+
+    fn sdo(&mut self, w: usize, req: Sdo) -> Sdo {
+        let d = &mut self.drives[w];
+        let read = |index: u16, sub: u8, value: u32, len: u8| Sdo::UploadResponse {
+            index,
+            sub,
+            value,
+            len,
+        };
+        match req {
+            Sdo::UploadRequest { index, sub } => match (index, sub) {
+                (0x1000, 0) => read(index, sub, DEVICE_TYPE, 4),
+                (0x1017, 0) => read(index, sub, (self.p.heartbeat_ns / 1_000_000) as u32, 2),
+                (0x6040, 0) => read(index, sub, d.last_controlword as u32, 2),
+                (0x6041, 0) => read(index, sub, d.state.statusword() as u32, 2),
+                (0x6060, 0) | (0x6061, 0) => read(index, sub, d.mode as u8 as u32, 1),
+                (0x6064, 0) => read(index, sub, d.position as u32, 4),
+                (0x606C, 0) => read(index, sub, d.velocity as u32, 4),
+                (0x60FF, 0) => read(index, sub, d.target as u32, 4),
+                _ => Sdo::Abort {
+                    index,
+                    sub,
+                    code: ABORT_NO_OBJECT,
+                },
+            },
+            Sdo::DownloadRequest {
+                index, sub, value, ..
+            } => match (index, sub) {
+                (0x6060, 0) => {
+                    // Profile velocity (3) is the only mode this twin has.
+                    if value == 3 {
+                        d.mode = 3;
+                        Sdo::DownloadResponse { index, sub }
+                    } else {
+                        Sdo::Abort {
+                            index,
+                            sub,
+                            code: ABORT_VALUE_RANGE,
+                        }
+                    }
+                }
+                (0x6040, 0) => {
+                    let cw = value as u16;
+                    d.state = transition(d.state, d.last_controlword, cw);
+                    d.last_controlword = cw;
+                    Sdo::DownloadResponse { index, sub }
+                }
+                (0x60FF, 0) => {
+                    d.target = value as i32;
+                    Sdo::DownloadResponse { index, sub }
+                }
+                (0x1000, 0) | (0x6041, 0) | (0x6061, 0) | (0x6064, 0) | (0x606C, 0) => Sdo::Abort {
+                    index,
+                    sub,
+                    code: ABORT_READ_ONLY,
+                },
+                _ => Sdo::Abort {
+                    index,
+                    sub,
+                    code: ABORT_NO_OBJECT,
+                },
+            },
+            Sdo::Abort { index, sub, .. }
+            | Sdo::UploadResponse { index, sub, .. }
+            | Sdo::DownloadResponse { index, sub } => Sdo::Abort {
+                index,
+                sub,
+                code: crate::canopen::sdo::ABORT_UNSUPPORTED,
+            },
         }
     }
 
@@ -81,25 +227,56 @@ impl SimDrives {
 
     /// A frame arrives on the bus at `now_ns`.
     pub fn receive(&mut self, now_ns: u64, frame: &CanFrame) {
-        match cia402::decode(frame) {
-            Ok(Pdo::Sync) => {
-                for (i, d) in self.drives.iter().enumerate() {
+        let operational = |d: &Drive| d.powered && d.nmt == Some(NmtState::Operational);
+        match classify(frame) {
+            Event::Sync => {
+                for i in 0..WHEELS {
+                    let d = self.drives[i];
+                    if !operational(&d) {
+                        continue;
+                    }
                     let node = i as u8 + 1;
                     let t = now_ns + self.p.response_latency_ns * node as u64;
-                    self.outbox.push(
-                        t,
-                        &cia402::tpdo1(node, d.state.statusword(), d.velocity).to_socketcan(),
-                    );
-                    self.outbox
-                        .push(t, &cia402::tpdo2(node, d.position).to_socketcan());
+                    self.send(t, &cia402::tpdo1(node, d.state.statusword(), d.velocity));
+                    self.send(t, &cia402::tpdo2(node, d.position));
                 }
             }
-            Ok(Pdo::Command {
+            Event::Nmt { command, node } => {
+                for i in 0..WHEELS {
+                    let d = &mut self.drives[i];
+                    if !(node == 0 || node as usize == i + 1) || !d.powered || d.nmt.is_none() {
+                        continue;
+                    }
+                    match command {
+                        NmtCommand::Start => d.nmt = Some(NmtState::Operational),
+                        NmtCommand::Stop => d.nmt = Some(NmtState::Stopped),
+                        NmtCommand::EnterPreOperational => d.nmt = Some(NmtState::PreOperational),
+                        NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
+                            // Reboots: a new boot-up message after the boot time.
+                            d.nmt = None;
+                            d.state = DriveState::SwitchOnDisabled;
+                            d.mode = 0;
+                        }
+                    }
+                }
+            }
+            Event::SdoRequest { node, sdo } if (1..=WHEELS as u8).contains(&node) => {
+                let w = node as usize - 1;
+                let d = self.drives[w];
+                if d.powered && d.nmt.is_some_and(|s| s != NmtState::Stopped) {
+                    let answer = self.sdo(w, sdo);
+                    self.send(now_ns + self.p.response_latency_ns, &answer.response(node));
+                }
+            }
+            Event::Pdo(Pdo::Command {
                 node,
                 controlword,
                 target_velocity,
             }) if (1..=WHEELS as u8).contains(&node) => {
                 let d = &mut self.drives[node as usize - 1];
+                if !operational(d) {
+                    return;
+                }
                 d.state = transition(d.state, d.last_controlword, controlword);
                 d.last_controlword = controlword;
                 d.target = target_velocity;
@@ -116,7 +293,8 @@ impl SimDrives {
             let fresh = d
                 .last_command_ns
                 .is_some_and(|t| now_ns.saturating_sub(t) <= self.p.command_timeout_ns);
-            if d.state == DriveState::OperationEnabled && fresh {
+            let running = d.powered && d.nmt == Some(NmtState::Operational) && d.mode == 3;
+            if running && d.state == DriveState::OperationEnabled && fresh {
                 *o = d.target as f64 * 1e-3;
             }
         }
@@ -174,9 +352,30 @@ fn transition(s: DriveState, previous_cw: u16, cw: u16) -> DriveState {
 mod tests {
     use super::*;
 
+    /// Boot the drives, set profile velocity mode and start them.
+    fn started() -> SimDrives {
+        let mut s = SimDrives::new(DriveParams::default());
+        s.tick(20_000_000);
+        for node in 1..=4u8 {
+            s.receive(
+                20_000_000,
+                &Sdo::DownloadRequest {
+                    index: 0x6060,
+                    sub: 0,
+                    value: 3,
+                    len: 1,
+                }
+                .request(node),
+            );
+        }
+        s.receive(20_000_000, &canopen::nmt(NmtCommand::Start, 0));
+        while s.outbox().pop_due(u64::MAX).is_some() {}
+        s
+    }
+
     #[test]
     fn the_epos_enable_sequence_reaches_operation_enabled() {
-        let mut s = SimDrives::new(DriveParams::default());
+        let mut s = started();
         for (i, cw) in [0x0006u16, 0x0007, 0x000F].into_iter().enumerate() {
             s.receive(i as u64, &cia402::rpdo1(2, cw, 0));
         }
@@ -186,26 +385,73 @@ mod tests {
 
     #[test]
     fn only_enabled_drives_with_fresh_commands_turn() {
-        let mut s = SimDrives::new(DriveParams::default());
+        let mut s = started();
         for cw in [0x0006u16, 0x0007, 0x000F] {
-            s.receive(0, &cia402::rpdo1(1, cw, 1500));
+            s.receive(20_000_000, &cia402::rpdo1(1, cw, 1500));
         }
-        s.receive(0, &cia402::rpdo1(2, 0x0006, 1500));
-        let t = s.wheel_targets(1_000_000);
+        s.receive(20_000_000, &cia402::rpdo1(2, 0x0006, 1500));
+        let t = s.wheel_targets(21_000_000);
         assert_eq!(t, [1.5, 0.0, 0.0, 0.0]);
         // Stale after the drive's timeout.
         assert_eq!(s.wheel_targets(300_000_000), [0.0; 4]);
     }
 
     #[test]
-    fn sync_is_answered_by_every_drive_after_its_latency() {
-        let mut s = SimDrives::new(DriveParams::default());
-        s.receive(1_000, &cia402::sync());
-        assert!(s.outbox().pop_due(1_000).is_none());
+    fn sync_is_answered_by_every_operational_drive_after_its_latency() {
+        let mut s = started();
+        s.receive(30_000_000, &cia402::sync());
+        assert!(s.outbox().pop_due(30_000_000).is_none());
         let mut n = 0;
-        while s.outbox().pop_due(10_000_000).is_some() {
+        while s.outbox().pop_due(40_000_000).is_some() {
             n += 1;
         }
         assert_eq!(n, 8);
+        // A drive without power says nothing.
+        s.set_powered(2, false);
+        s.receive(50_000_000, &cia402::sync());
+        let mut n = 0;
+        while s.outbox().pop_due(60_000_000).is_some() {
+            n += 1;
+        }
+        assert_eq!(n, 6);
+    }
+
+    #[test]
+    fn boot_up_heartbeat_and_sdo() {
+        let mut s = SimDrives::new(DriveParams::default());
+        s.tick(0);
+        assert!(s.outbox().pop_due(u64::MAX).is_none(), "still booting");
+        s.tick(20_000_000);
+        let (_, b) = s.outbox().pop_due(u64::MAX).expect("boot-up");
+        let f = CanFrame::from_socketcan(&b).expect("frame");
+        assert_eq!((f.id, f.payload()), (0x701, &[0u8][..]));
+        while s.outbox().pop_due(u64::MAX).is_some() {}
+        s.receive(
+            30_000_000,
+            &Sdo::UploadRequest {
+                index: 0x1000,
+                sub: 0,
+            }
+            .request(2),
+        );
+        let (_, b) = s.outbox().pop_due(u64::MAX).expect("answer");
+        let f = CanFrame::from_socketcan(&b).expect("frame");
+        assert_eq!(
+            Sdo::parse_response(f.payload()),
+            Some(Sdo::UploadResponse {
+                index: 0x1000,
+                sub: 0,
+                value: DEVICE_TYPE,
+                len: 4
+            })
+        );
+        s.tick(120_000_000);
+        let mut beats = 0;
+        while let Some((_, b)) = s.outbox().pop_due(u64::MAX) {
+            let f = CanFrame::from_socketcan(&b).expect("frame");
+            assert_eq!(f.payload(), &[0x7F]);
+            beats += 1;
+        }
+        assert_eq!(beats, 4);
     }
 }

@@ -80,6 +80,11 @@ impl SimHardware {
         self.truth.clone()
     }
 
+    /// The drives, for fault injection.
+    pub fn drives_mut(&mut self) -> &mut drives::SimDrives {
+        &mut self.drives
+    }
+
     /// Counters of frames the simulated devices could not deliver.
     pub fn dropped(&self) -> u64 {
         self.imu.dropped() + self.drives.dropped()
@@ -89,6 +94,7 @@ impl SimHardware {
 impl Hardware for SimHardware {
     fn advance_to(&mut self, now_ns: u64) {
         while self.t_ns + STEP_NS <= now_ns {
+            self.drives.tick(self.t_ns);
             let targets = self.drives.wheel_targets(self.t_ns);
             self.rover.step(STEP_NS, &targets);
             self.t_ns += STEP_NS;
