@@ -20,6 +20,36 @@ pub struct ImuSample {
     pub status_word: u32,
 }
 
+/// One LiDAR revolution. Its storage is allocated at start-up and recycled.
+#[derive(Clone, Debug, Default)]
+pub struct Cloud {
+    pub index: u64,
+    /// Sensor time of the first firing, microseconds past the hour (plus
+    /// whole hours since start).
+    pub start_us: f64,
+    /// Point times are seconds after the first firing.
+    pub points: Vec<speleo_hal::hdl32e::Point>,
+}
+
+/// What the LiDAR driver counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LidarCounters {
+    pub packets: u64,
+    pub bad_length: u64,
+    pub bad_flag: u64,
+    pub bad_azimuth: u64,
+    pub lost_packets: u64,
+    pub out_of_order: u64,
+    pub dropped_points: u64,
+    pub frames: u64,
+    /// Frames not published because every buffer was in use.
+    pub dropped_frames: u64,
+    pub position_packets: u64,
+    pub bad_position_packets: u64,
+    /// Sensor time of the latest position packet, us past the hour.
+    pub position_time_us: u32,
+}
+
 /// Odometry pose of base_link in the odom frame.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct OdomPose {
@@ -139,6 +169,8 @@ pub const RAW_ENTRIES: usize = 2048;
 pub struct Bus {
     pub raw: RawFrame,
     pub imu: Ring<ImuSample, 32>,
+    pub cloud: Latest<Cloud>,
+    pub lidar: LidarCounters,
     pub drives: Latest<DrivesState>,
     /// Why the drive output holds the wheels at zero, every frame.
     pub drive_stop: Latest<StopReasons>,
@@ -163,6 +195,8 @@ impl Bus {
         Box::new(Bus {
             raw: RawFrame::with_capacity(RAW_ARENA_BYTES, RAW_ENTRIES),
             imu: Ring::new(),
+            cloud: Latest::new(),
+            lidar: LidarCounters::default(),
             drives: Latest::new(),
             drive_stop: Latest::new(),
             odom: Latest::new(),

@@ -37,6 +37,73 @@ pub enum Command {
     /// Run on the real rover: monotonic clock, real devices, overrun policies
     /// enforced. Stops on Ctrl-C or after --duration.
     Run(RunArgs),
+    /// Import a LiDAR capture (pcap: datagrams to UDP 2368 and 8308) as a
+    /// recording that `speleo replay` runs through the drivers.
+    Pcap2mcap(Pcap2mcapArgs),
+    /// Decode a device capture or log and print what it holds.
+    #[command(subcommand)]
+    Decode(DecodeCommand),
+}
+
+#[derive(Args, Debug)]
+pub struct Pcap2mcapArgs {
+    #[arg(value_name = "CAPTURE.pcap")]
+    pub capture: PathBuf,
+    #[arg(value_name = "OUT.mcap")]
+    pub out: PathBuf,
+    /// Configuration stored in the recording (replay uses it).
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum DecodeCommand {
+    /// Velodyne HDL-32E capture: frame count and points per frame.
+    Hdl32e(DecodeHdl32eArgs),
+    /// Xsens MTi byte stream: every message with its decoded fields, then the
+    /// counts of good frames, bad checksums and bytes skipped.
+    Xbus(DecodeXbusArgs),
+    /// `candump -L` log (or candump's screen format): NMT, SDO, PDO, SYNC,
+    /// EMCY and heartbeat events with their CiA 402 meaning.
+    Can(DecodeCanArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct DecodeHdl32eArgs {
+    #[arg(value_name = "CAPTURE.pcap")]
+    pub capture: PathBuf,
+    /// VeloView XML or ROS YAML calibration [default: the nominal table].
+    #[arg(long, value_name = "FILE")]
+    pub calib: Option<PathBuf>,
+    /// Write `frame,x,y,z,intensity,ring,time` (ROS axes: x forward, y left;
+    /// time in seconds after the frame's first firing).
+    #[arg(long, value_name = "OUT.csv")]
+    pub csv: Option<PathBuf>,
+    /// With --csv: only this frame.
+    #[arg(long, value_name = "N")]
+    pub frame: Option<u64>,
+    /// Azimuth interpolation within a block: continuous, veloview (reproduces
+    /// VeloView) or velodyne-decoder (reproduces that PyPI package).
+    #[arg(long, default_value = "continuous")]
+    pub interpolation: String,
+    /// Azimuth at which frames are split, degrees.
+    #[arg(long, default_value_t = 0.0)]
+    pub cut_angle: f64,
+}
+
+#[derive(Args, Debug)]
+pub struct DecodeXbusArgs {
+    #[arg(value_name = "FILE.bin")]
+    pub file: PathBuf,
+    /// One JSON object per line.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct DecodeCanArgs {
+    #[arg(value_name = "FILE.log")]
+    pub file: PathBuf,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -112,9 +179,18 @@ pub fn main() -> ExitCode {
         Command::Sim(a) => modes::sim(a, progress),
         Command::Replay(a) => modes::replay(a, progress),
         Command::Run(a) => modes::run(a, progress),
+        Command::Pcap2mcap(a) => modes::pcap2mcap(a),
+        Command::Decode(d) => modes::decode(d),
     };
     match result {
         Ok(code) => code,
+        // The reader went away (`speleo decode ... | head`): not an error.
+        Err(e)
+            if e.downcast_ref::<std::io::Error>()
+                .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::from(2)

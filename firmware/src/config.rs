@@ -36,6 +36,7 @@ pub struct Config {
     pub sim: SimConfig,
     pub rover: RoverConfig,
     pub control: ControlConfig,
+    pub lidar: LidarConfig,
     pub health: HealthConfig,
     pub record: RecordConfig,
     pub devices: DevicesConfig,
@@ -156,6 +157,39 @@ impl Default for ControlConfig {
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
+pub struct LidarConfig {
+    /// VeloView XML or ROS YAML calibration; empty: the nominal HDL-32E table.
+    pub calibration: String,
+    /// Azimuth at which revolutions are split into frames, degrees.
+    pub cut_angle_deg: f64,
+    /// "continuous", "veloview" or "velodyne-decoder" (see the decoder).
+    pub interpolation: String,
+    /// Returns closer than this are dropped (the rover's own body).
+    pub min_range_m: f64,
+    /// Frame buffer size; points beyond it are dropped and counted.
+    pub max_points_per_frame: u32,
+    /// Sensor position on base_link (x, y, z, m) and orientation (roll, pitch, yaw, deg).
+    pub mount_xyz: [f64; 3],
+    pub mount_rpy_deg: [f64; 3],
+}
+
+impl Default for LidarConfig {
+    fn default() -> Self {
+        LidarConfig {
+            calibration: String::new(),
+            cut_angle_deg: 0.0,
+            interpolation: "continuous".into(),
+            min_range_m: 0.0,
+            // 69,504 returns per revolution at 10 Hz; twice that at 5 Hz.
+            max_points_per_frame: 140_000,
+            mount_xyz: [0.0, 0.0, 0.5],
+            mount_rpy_deg: [0.0, 0.0, 0.0],
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct HealthConfig {
     pub imu_timeout_ms: u32,
     /// A drive whose heartbeat (every 100 ms by default) is older than this
@@ -207,6 +241,8 @@ impl Default for RecordConfig {
 pub struct DevicesConfig {
     /// Local address the HDL-32E data packets are received on.
     pub lidar_bind: String,
+    /// Local address of the position packets (UDP 8308); empty: not received.
+    pub lidar_position_bind: String,
     /// The sensor's address; datagrams from anywhere else are dropped.
     pub lidar_sensor: String,
     pub imu_port: String,
@@ -218,6 +254,7 @@ impl Default for DevicesConfig {
     fn default() -> Self {
         DevicesConfig {
             lidar_bind: "0.0.0.0:2368".into(),
+            lidar_position_bind: "0.0.0.0:8308".into(),
             lidar_sensor: "192.168.1.201:2368".into(),
             imu_port: "/dev/ttyUSB0".into(),
             imu_baud: 921_600,
@@ -390,6 +427,41 @@ impl Config {
             10_000,
             "10..=10000",
         )?;
+        let l = &self.lidar;
+        range(
+            "lidar.cut_angle_deg",
+            l.cut_angle_deg,
+            0.0,
+            360.0,
+            "0..=360",
+        )?;
+        range("lidar.min_range_m", l.min_range_m, 0.0, 100.0, "0..=100")?;
+        range(
+            "lidar.max_points_per_frame",
+            l.max_points_per_frame,
+            1_000,
+            1_000_000,
+            "1000..=1000000",
+        )?;
+        if !["continuous", "veloview", "velodyne-decoder"].contains(&l.interpolation.as_str()) {
+            return Err(ConfigError::Invalid {
+                key: "lidar.interpolation".into(),
+                why: format!(
+                    "\"{}\" is not continuous, veloview or velodyne-decoder",
+                    l.interpolation
+                ),
+            });
+        }
+        if l.mount_xyz
+            .iter()
+            .chain(&l.mount_rpy_deg)
+            .any(|v| !v.is_finite())
+        {
+            return Err(ConfigError::Invalid {
+                key: "lidar.mount_xyz".into(),
+                why: "mount values must be finite numbers".into(),
+            });
+        }
         let h = &self.health;
         range(
             "health.imu_timeout_ms",

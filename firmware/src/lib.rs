@@ -11,3 +11,4 @@ pub mod record;
 pub mod report;
 pub mod schedule_table;
 pub mod tasks;
+pub mod tools;

@@ -23,7 +23,7 @@ use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
 use crate::tasks::recorder::mode_name;
 use crate::tasks::{
-    control, drive_driver, drive_output, health, imu_driver, io, odometry, recorder,
+    control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, odometry, recorder,
 };
 
 /// How long the mission runs.
@@ -82,6 +82,36 @@ pub struct MissionResult {
 pub enum MissionError {
     #[error("{0}")]
     Executive(#[from] ExecutiveError),
+    #[error("lidar.calibration: {0}")]
+    Calibration(#[from] speleo_hal::hdl32e::calib::CalibError),
+}
+
+/// Bytes of one recorded point-cloud message for `max_points` points
+/// (20-byte points in base64, plus the JSON around them).
+pub fn cloud_message_capacity(max_points: u32) -> usize {
+    (max_points as usize * 20).div_ceil(3) * 4 + 4096
+}
+
+fn build_lidar_driver(cfg: &Config) -> Result<lidar_driver::LidarDriver, MissionError> {
+    use speleo_hal::hdl32e::{Calibration, Decoder, FrameAssembler, Interpolation};
+    let l = &cfg.lidar;
+    let cal = if l.calibration.is_empty() {
+        Calibration::nominal()
+    } else {
+        Calibration::load(std::path::Path::new(&l.calibration))?
+    };
+    let mode = match l.interpolation.as_str() {
+        "veloview" => Interpolation::VeloView,
+        "velodyne-decoder" => Interpolation::FixedPairs,
+        _ => Interpolation::Continuous,
+    };
+    let mut decoder = Decoder::new(&cal).with_interpolation(mode);
+    decoder.min_distance_m = l.min_range_m;
+    let cap = l.max_points_per_frame as usize;
+    Ok(lidar_driver::LidarDriver::new(
+        FrameAssembler::new(decoder, l.cut_angle_deg, cap),
+        cap,
+    ))
 }
 
 /// Park this thread once so that everything the standard library creates
@@ -120,6 +150,7 @@ pub fn run<C: FrameClock>(
     let r = &cfg.rover;
     let mut bus = Bus::new();
     let mut t_io = io::IoTask::new(hw);
+    let mut t_lidar = build_lidar_driver(cfg)?;
     // 100 Hz outputs; 100 ms for each acknowledgement, 5 tries.
     let mut t_imu = imu_driver::ImuDriver::new(100, 100_000_000, 5);
     let mut t_drive = drive_driver::DriveDriver::default();
@@ -151,12 +182,19 @@ pub fn run<C: FrameClock>(
         h.startup_grace_ms as u64 * 1_000_000,
         h.safe_mode_on_stale,
     );
-    let mut t_rec = recorder::RecorderTask::new(tap, cfg.control.path.clone(), cfg.control.looped);
+    let mut t_rec = recorder::RecorderTask::new(
+        tap,
+        cfg.control.path.clone(),
+        cfg.control.looped,
+        cfg.lidar.mount_xyz,
+        cfg.lidar.mount_rpy_deg,
+    );
 
     // Same order as schedule_table::TASKS.
     let mut tasks: heapless::Vec<&mut dyn Task<Bus>, { speleo_scheduler::MAX_TASKS }> =
         heapless::Vec::new();
     let _ = tasks.push(&mut t_io);
+    let _ = tasks.push(&mut t_lidar);
     let _ = tasks.push(&mut t_imu);
     let _ = tasks.push(&mut t_drive);
     let _ = tasks.push(&mut t_odo);

@@ -16,7 +16,7 @@ use speleo_hal::Hardware;
 use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
 use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
 
-use crate::cli::{Outputs, ReplayArgs, RunArgs, SimArgs};
+use crate::cli::{DecodeCommand, Outputs, Pcap2mcapArgs, ReplayArgs, RunArgs, SimArgs};
 use crate::config::Config;
 use crate::mission::{self, Length, MissionInputs, MissionResult};
 use crate::record::compare::Comparer;
@@ -44,7 +44,8 @@ impl Session {
         comparer: Option<Comparer>,
         blocking: bool,
     ) -> Result<Session, Error> {
-        let tap = RecorderTap::new(epoch_ns, comparer);
+        let large = mission::cloud_message_capacity(cfg.lidar.max_points_per_frame);
+        let tap = RecorderTap::new(epoch_ns, comparer, large);
         let Some(path) = &out.record else {
             return Ok(Session {
                 tap: RefCell::new(tap),
@@ -56,11 +57,13 @@ impl Session {
             zstd: cfg.record.compression == "zstd",
             chunk_size: cfg.record.chunk_size_kib as u64 * 1024,
             pool: cfg.record.pool_messages as usize,
+            large_pool: 4,
+            large_capacity: large,
             run_metadata: meta,
         })?;
         let thread = h.thread.thread().clone();
         Ok(Session {
-            tap: RefCell::new(tap.with_writer(h.tx, h.pool, thread, blocking)),
+            tap: RefCell::new(tap.with_writer(h.tx, h.pool, h.large_pool, thread, blocking)),
             writer: Some(h.thread),
         })
     }
@@ -257,8 +260,16 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
     let truncated = rec.truncated.is_some();
     let mut meta = run_metadata(&cfg, "replay", epoch_ns);
     meta.insert("source".into(), a.log.display().to_string());
-    let comparer = Comparer::new(rec.expected, last);
-    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, Some(comparer), true)?;
+    // An imported capture has raw inputs only: nothing to compare with.
+    let imported = rec.run.get("mode").map(String::as_str) == Some("import");
+    let comparer = (!imported).then(|| {
+        Comparer::new(
+            rec.expected,
+            last,
+            mission::cloud_message_capacity(cfg.lidar.max_points_per_frame),
+        )
+    });
+    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, comparer, true)?;
     let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
     let result = session.drive(
         &cfg,
@@ -287,6 +298,14 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
             divergence: divergence.clone(),
         }),
     )?;
+    if imported {
+        println!(
+            "replayed {} frames of an imported capture (it holds no outputs to compare)",
+            result.frames
+        );
+        print_summary(&result);
+        return Ok(ExitCode::SUCCESS);
+    }
     match divergence {
         None => {
             println!("identical");
@@ -309,6 +328,7 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     schedule_table::build(&cfg)?;
     let mut hw = speleo_hal::real::RealHardware::open(&speleo_hal::real::DeviceSettings {
         lidar_bind: cfg.devices.lidar_bind.clone(),
+        lidar_position_bind: cfg.devices.lidar_position_bind.clone(),
         lidar_sensor: cfg.devices.lidar_sensor.clone(),
         imu_port: cfg.devices.imu_port.clone(),
         imu_baud: cfg.devices.imu_baud,
@@ -342,5 +362,59 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     )?;
     write_report(a.out.report.as_deref(), "run", &result, None)?;
     print_summary(&result);
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn pcap2mcap(a: Pcap2mcapArgs) -> Result<ExitCode, Error> {
+    let cfg = match &a.config {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    };
+    let s = crate::tools::pcap2mcap::run(&a.capture, &a.out, &cfg)?;
+    println!(
+        "{}: {} data packets, {} position packets over {} frames ({} other datagrams left out)",
+        a.out.display(),
+        s.data_packets,
+        s.position_packets,
+        s.frames,
+        s.other
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn decode(d: DecodeCommand) -> Result<ExitCode, Error> {
+    use crate::tools::{decode_can, decode_hdl32e, decode_xbus};
+    use speleo_hal::hdl32e::Interpolation;
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    match d {
+        DecodeCommand::Hdl32e(a) => {
+            let interpolation = match a.interpolation.as_str() {
+                "continuous" => Interpolation::Continuous,
+                "veloview" => Interpolation::VeloView,
+                "velodyne-decoder" => Interpolation::FixedPairs,
+                other => {
+                    return Err(format!(
+                        "--interpolation {other}: use continuous, veloview or velodyne-decoder"
+                    )
+                    .into())
+                }
+            };
+            decode_hdl32e::run(
+                &a.capture,
+                &decode_hdl32e::Options {
+                    calib: a.calib.as_deref(),
+                    csv: a.csv.as_deref(),
+                    frame: a.frame,
+                    interpolation,
+                    cut_angle_deg: a.cut_angle,
+                },
+                &mut out,
+            )?
+        }
+        DecodeCommand::Xbus(a) => decode_xbus::run(&a.file, a.json, &mut out)?,
+        DecodeCommand::Can(a) => decode_can::run(&a.file, &mut out)?,
+    }
+    std::io::Write::flush(&mut out)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -29,6 +29,8 @@ pub use can::CanFrame;
 pub enum Device {
     /// HDL-32E data packets (UDP 2368).
     Lidar,
+    /// HDL-32E position packets (UDP 8308): GPS time and NMEA.
+    LidarPosition,
     /// Xsens MTi serial bytes.
     Imu,
     /// CAN frames from the motor drives, in SocketCAN's 16-byte layout.
@@ -36,11 +38,17 @@ pub enum Device {
 }
 
 impl Device {
-    pub const ALL: [Device; 3] = [Device::Lidar, Device::Imu, Device::Can];
+    pub const ALL: [Device; 4] = [
+        Device::Lidar,
+        Device::LidarPosition,
+        Device::Imu,
+        Device::Can,
+    ];
 
     pub fn name(&self) -> &'static str {
         match self {
             Device::Lidar => "lidar",
+            Device::LidarPosition => "lidar_position",
             Device::Imu => "imu",
             Device::Can => "can",
         }

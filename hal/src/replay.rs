@@ -60,7 +60,8 @@ impl ReplayHardware {
         };
         for i in inputs {
             match i.device {
-                Device::Lidar => hw.lidar.items.push(i),
+                // Data and position packets share the LiDAR source, in order.
+                Device::Lidar | Device::LidarPosition => hw.lidar.items.push(i),
                 Device::Imu => hw.imu.items.push(i),
                 Device::Can => hw.can.items.push(i),
             }

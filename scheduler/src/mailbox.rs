@@ -49,6 +49,21 @@ impl<T> Latest<T> {
         self.previous = self.current.replace(new);
     }
 
+    /// Publish and hand back the value that fell out of the slot (the one
+    /// before the previous), so a producer of large values (point clouds)
+    /// can reuse its storage instead of allocating.
+    pub fn publish_recycle(&mut self, stamp_ns: u64, value: T) -> Option<T> {
+        self.published += 1;
+        let new = Stamped {
+            stamp_ns,
+            seq: self.published,
+            value,
+        };
+        let evicted = self.previous.take();
+        self.previous = self.current.replace(new);
+        evicted.map(|s| s.value)
+    }
+
     /// The newest value, if any was published.
     pub fn get(&self) -> Option<&Stamped<T>> {
         self.current.as_ref()

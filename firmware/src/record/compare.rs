@@ -40,15 +40,16 @@ pub struct Comparer {
 }
 
 impl Comparer {
-    /// `expected[i]` holds the outputs of topic `Topic::ALL[i]` in order.
-    pub fn new(expected: Vec<Vec<ExpectedMessage>>, last_frame: u64) -> Self {
+    /// `expected[i]` holds the outputs of topic `Topic::ALL[i]` in order;
+    /// `largest` is the size of the largest message (kept at a divergence).
+    pub fn new(expected: Vec<Vec<ExpectedMessage>>, last_frame: u64, largest: usize) -> Self {
         let n = expected.len();
         Comparer {
             expected,
             cursor: vec![0; n],
             last_frame,
             divergence: None,
-            actual: Vec::with_capacity(MESSAGE_CAPACITY),
+            actual: Vec::with_capacity(largest.max(MESSAGE_CAPACITY)),
             compared: 0,
         }
     }
@@ -273,7 +274,7 @@ mod tests {
     fn comparer(odom: Vec<ExpectedMessage>) -> Comparer {
         let mut e = vec![Vec::new(); Topic::ALL.len()];
         e[Topic::Odom as usize] = odom;
-        Comparer::new(e, 10)
+        Comparer::new(e, 10, 0)
     }
 
     #[test]
@@ -331,7 +332,7 @@ mod tests {
         let mut e = vec![Vec::new(); Topic::ALL.len()];
         e[Topic::Imu as usize] = vec![msg(5, "{}"), msg(6, "{}")];
         e[Topic::Odom as usize] = vec![msg(5, "{\"x\":1}")];
-        let mut c = Comparer::new(e, 10);
+        let mut c = Comparer::new(e, 10, 0);
         // The IMU sample of frame 5 is missing; odometry differs as a result.
         c.check(Topic::Odom, 5, b"{\"x\":2}");
         c.end_frame(5);

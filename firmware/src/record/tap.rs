@@ -20,6 +20,7 @@ pub const MAX_RAW_INPUT: usize = 4096;
 struct TapWriter {
     tx: rtrb::Producer<WriterMsg>,
     pool: rtrb::Consumer<Vec<u8>>,
+    large_pool: rtrb::Consumer<Vec<u8>>,
     thread: Thread,
     /// Wait for a free buffer (virtual time: nothing is ever dropped) or drop
     /// and count (real time: the frame must not wait for the disk).
@@ -45,8 +46,9 @@ pub struct RecorderTap {
     epoch_ns: u64,
     writer: Option<TapWriter>,
     local: Vec<u8>,
-    /// A pooled buffer kept back after a refused message.
-    spare: Option<Vec<u8>>,
+    local_large: Vec<u8>,
+    /// Pooled buffers (small, large) kept back after a refused message.
+    spare: [Option<Vec<u8>>; 2],
     base64: Vec<u8>,
     hasher: Xxh3Default,
     pub counters: TapCounters,
@@ -54,13 +56,15 @@ pub struct RecorderTap {
 }
 
 impl RecorderTap {
-    /// `epoch_ns` is added to every time so recordings carry Unix times.
-    pub fn new(epoch_ns: u64, compare: Option<Comparer>) -> Self {
+    /// `epoch_ns` is added to every time so recordings carry Unix times;
+    /// `large_capacity` is the size of a point-cloud message.
+    pub fn new(epoch_ns: u64, compare: Option<Comparer>, large_capacity: usize) -> Self {
         RecorderTap {
             epoch_ns,
             writer: None,
             local: Vec::with_capacity(MESSAGE_CAPACITY),
-            spare: None,
+            local_large: Vec::with_capacity(large_capacity),
+            spare: [None, None],
             base64: vec![0; MAX_RAW_INPUT.div_ceil(3) * 4],
             hasher: Xxh3Default::new(),
             counters: TapCounters::default(),
@@ -74,12 +78,14 @@ impl RecorderTap {
         mut self,
         tx: rtrb::Producer<WriterMsg>,
         pool: rtrb::Consumer<Vec<u8>>,
+        large_pool: rtrb::Consumer<Vec<u8>>,
         thread: Thread,
         blocking: bool,
     ) -> Self {
         self.writer = Some(TapWriter {
             tx,
             pool,
+            large_pool,
             thread,
             blocking,
         });
@@ -105,11 +111,37 @@ impl RecorderTap {
         publish_ns: u64,
         body: impl FnOnce(&mut Bounded<'_>) -> serde_json::Result<()>,
     ) {
-        let (mut buf, pooled) = self.take_buffer();
+        self.emit_sized(topic, frame, log_ns, publish_ns, false, |w| {
+            body(w).map_err(std::io::Error::other)
+        });
+    }
+
+    /// Record one message in a buffer of the large pool (point clouds).
+    pub fn emit_large(
+        &mut self,
+        topic: Topic,
+        frame: u64,
+        log_ns: u64,
+        publish_ns: u64,
+        body: impl FnOnce(&mut Bounded<'_>) -> std::io::Result<()>,
+    ) {
+        self.emit_sized(topic, frame, log_ns, publish_ns, true, body);
+    }
+
+    fn emit_sized(
+        &mut self,
+        topic: Topic,
+        frame: u64,
+        log_ns: u64,
+        publish_ns: u64,
+        large: bool,
+        body: impl FnOnce(&mut Bounded<'_>) -> std::io::Result<()>,
+    ) {
+        let (mut buf, pooled) = self.take_buffer(large);
         buf.clear();
         if body(&mut Bounded(&mut buf)).is_err() {
             self.counters.too_large += 1;
-            self.put_back(buf, pooled);
+            self.put_back(buf, pooled, large);
             return;
         }
         let log_time = self.epoch_ns + log_ns;
@@ -127,11 +159,12 @@ impl RecorderTap {
             }
         }
         if !pooled {
-            self.local = buf;
+            self.put_back(buf, false, large);
             return;
         }
         let m = Outgoing {
             topic,
+            large,
             sequence: frame as u32,
             log_time,
             publish_time,
@@ -180,19 +213,24 @@ impl RecorderTap {
     }
 
     /// A buffer for the next message, and whether it goes to the writer.
-    fn take_buffer(&mut self) -> (Vec<u8>, bool) {
-        if let Some(b) = self.spare.take() {
+    fn take_buffer(&mut self, large: bool) -> (Vec<u8>, bool) {
+        if let Some(b) = self.spare[large as usize].take() {
             return (b, true);
         }
         let mut got = None;
         if let Some(w) = self.writer.as_mut() {
+            let pool = if large {
+                &mut w.large_pool
+            } else {
+                &mut w.pool
+            };
             while !self.counters.writer_gone {
-                match w.pool.pop() {
+                match pool.pop() {
                     Ok(b) => {
                         got = Some(b);
                         break;
                     }
-                    Err(_) if w.pool.is_abandoned() => self.counters.writer_gone = true,
+                    Err(_) if pool.is_abandoned() => self.counters.writer_gone = true,
                     Err(_) if w.blocking => {
                         // Virtual time: wait for the disk rather than lose data.
                         w.thread.unpark();
@@ -208,13 +246,16 @@ impl RecorderTap {
         match got {
             Some(b) => (b, true),
             // Not recorded, but still hashed and compared.
+            None if large => (std::mem::take(&mut self.local_large), false),
             None => (std::mem::take(&mut self.local), false),
         }
     }
 
-    fn put_back(&mut self, buf: Vec<u8>, pooled: bool) {
+    fn put_back(&mut self, buf: Vec<u8>, pooled: bool, large: bool) {
         if pooled {
-            self.spare = Some(buf);
+            self.spare[large as usize] = Some(buf);
+        } else if large {
+            self.local_large = buf;
         } else {
             self.local = buf;
         }

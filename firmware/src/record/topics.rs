@@ -28,11 +28,13 @@ impl Role {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Topic {
     RawLidar,
+    RawLidarPosition,
     RawImu,
     RawCan,
     ImuTx,
     CanTx,
     Imu,
+    Cloud,
     Drives,
     Odom,
     Tf,
@@ -53,13 +55,15 @@ pub struct TopicInfo {
 }
 
 impl Topic {
-    pub const ALL: [Topic; 15] = [
+    pub const ALL: [Topic; 17] = [
         Topic::RawLidar,
+        Topic::RawLidarPosition,
         Topic::RawImu,
         Topic::RawCan,
         Topic::ImuTx,
         Topic::CanTx,
         Topic::Imu,
+        Topic::Cloud,
         Topic::Drives,
         Topic::Odom,
         Topic::Tf,
@@ -83,11 +87,23 @@ impl Topic {
     pub fn info(self) -> TopicInfo {
         let (name, schema, schema_json, role) = match self {
             Topic::RawLidar => ("/raw/lidar", "speleo.RawInput", RAW_INPUT, Role::Input),
+            Topic::RawLidarPosition => (
+                "/raw/lidar_position",
+                "speleo.RawInput",
+                RAW_INPUT,
+                Role::Input,
+            ),
             Topic::RawImu => ("/raw/imu", "speleo.RawInput", RAW_INPUT, Role::Input),
             Topic::RawCan => ("/raw/can", "speleo.RawInput", RAW_INPUT, Role::Input),
             Topic::ImuTx => ("/imu/tx", "speleo.RawInput", RAW_INPUT, Role::Output),
             Topic::CanTx => ("/can/tx", "speleo.CanFrames", CAN_FRAMES, Role::Output),
             Topic::Imu => ("/imu", "speleo.ImuSample", IMU_SAMPLE, Role::Output),
+            Topic::Cloud => (
+                "/lidar/points",
+                "foxglove.PointCloud",
+                POINT_CLOUD,
+                Role::Output,
+            ),
             Topic::Drives => (
                 "/drives",
                 "speleo.DriveFeedback",
@@ -152,7 +168,9 @@ const FRAME_TRANSFORM: &str = r#"{"title":"foxglove.FrameTransform","description
 
 const SCENE_UPDATE: &str = r#"{"title":"foxglove.SceneUpdate","description":"An update to the entities displayed in a 3D scene","type":"object","properties":{"deletions":{"type":"array","items":{"type":"object"}},"entities":{"type":"array","items":{"title":"foxglove.SceneEntity","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"frame_id":{"type":"string"},"id":{"type":"string"},"lifetime":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frame_locked":{"type":"boolean"},"metadata":{"type":"array","items":{"type":"object"}},"arrows":{"type":"array"},"cubes":{"type":"array"},"spheres":{"type":"array"},"cylinders":{"type":"array"},"lines":{"type":"array","items":{"title":"foxglove.LinePrimitive","type":"object","properties":{"type":{"type":"integer","description":"0 LINE_STRIP, 1 LINE_LOOP, 2 LINE_LIST"},"pose":{"type":"object"},"thickness":{"type":"number"},"scale_invariant":{"type":"boolean"},"points":{"type":"array","items":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}}},"color":{"type":"object","properties":{"r":{"type":"number"},"g":{"type":"number"},"b":{"type":"number"},"a":{"type":"number"}}},"colors":{"type":"array"},"indices":{"type":"array"}}}},"triangles":{"type":"array"},"texts":{"type":"array"},"models":{"type":"array"}}}}}}"#;
 
-const RAW_INPUT: &str = r#"{"title":"speleo.RawInput","description":"Bytes exactly as received from a device","type":"object","properties":{"receive_time":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"device":{"type":"string","enum":["lidar","imu","can"]},"data":{"type":"string","contentEncoding":"base64","description":"lidar: one UDP payload; imu: a serial read; can: one SocketCAN struct can_frame (16 bytes)"}}}"#;
+const POINT_CLOUD: &str = r#"{"title":"foxglove.PointCloud","description":"A collection of N-dimensional points, which may contain additional fields with information like normals, intensity, etc.","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"frame_id":{"type":"string"},"pose":{"title":"foxglove.Pose","type":"object","properties":{"position":{"title":"foxglove.Vector3","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"orientation":{"title":"foxglove.Quaternion","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}}},"point_stride":{"type":"integer","minimum":0},"fields":{"type":"array","items":{"title":"foxglove.PackedElementField","type":"object","properties":{"name":{"type":"string"},"offset":{"type":"integer","minimum":0},"type":{"type":"integer","description":"1 UINT8, 2 INT8, 3 UINT16, 4 INT16, 5 UINT32, 6 INT32, 7 FLOAT32, 8 FLOAT64"}}}},"data":{"type":"string","contentEncoding":"base64"}}}"#;
+
+const RAW_INPUT: &str = r#"{"title":"speleo.RawInput","description":"Bytes exactly as received from a device","type":"object","properties":{"receive_time":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"device":{"type":"string","enum":["lidar","lidar_position","imu","can"]},"data":{"type":"string","contentEncoding":"base64","description":"lidar: one UDP payload; imu: a serial read; can: one SocketCAN struct can_frame (16 bytes)"}}}"#;
 
 const CAN_FRAMES: &str = r#"{"title":"speleo.CanFrames","description":"CAN frames queued for the bus in this frame (sent at the start of the next)","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frames":{"type":"array","items":{"type":"object","properties":{"id":{"type":"integer"},"data":{"type":"array","items":{"type":"integer"}}}}}}}"#;
 

@@ -25,6 +25,8 @@ pub const MESSAGE_CAPACITY: usize = 16 * 1024;
 
 pub struct Outgoing {
     pub topic: Topic,
+    /// The buffer belongs to the large pool.
+    pub large: bool,
     pub sequence: u32,
     pub log_time: u64,
     pub publish_time: u64,
@@ -43,6 +45,9 @@ pub struct WriterOptions {
     pub zstd: bool,
     pub chunk_size: u64,
     pub pool: usize,
+    /// Buffers for point clouds: how many, and how large.
+    pub large_pool: usize,
+    pub large_capacity: usize,
     /// Written as the `speleo.run` metadata record before any message.
     pub run_metadata: BTreeMap<String, String>,
 }
@@ -57,6 +62,7 @@ pub struct WriterStats {
 pub struct WriterHandle {
     pub tx: rtrb::Producer<WriterMsg>,
     pub pool: rtrb::Consumer<Vec<u8>>,
+    pub large_pool: rtrb::Consumer<Vec<u8>>,
     pub thread: JoinHandle<Result<WriterStats, String>>,
 }
 
@@ -106,20 +112,25 @@ fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
 pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
     let mut w = open(&opts)?;
     // One more slot than buffers, for the closing message.
-    let (tx, rx) = rtrb::RingBuffer::<WriterMsg>::new(opts.pool + 1);
+    let (tx, rx) = rtrb::RingBuffer::<WriterMsg>::new(opts.pool + opts.large_pool + 1);
     let (mut pool_tx, pool_rx) = rtrb::RingBuffer::<Vec<u8>>::new(opts.pool);
     for _ in 0..opts.pool {
         let _ = pool_tx.push(Vec::with_capacity(MESSAGE_CAPACITY));
+    }
+    let (mut large_tx, large_rx) = rtrb::RingBuffer::<Vec<u8>>::new(opts.large_pool.max(1));
+    for _ in 0..opts.large_pool {
+        let _ = large_tx.push(Vec::with_capacity(opts.large_capacity));
     }
     let path = opts.path.clone();
     let recorder = std::thread::current();
     let thread = std::thread::Builder::new()
         .name("mcap-writer".into())
-        .spawn(move || run(&mut w, &path, rx, pool_tx, recorder))
+        .spawn(move || run(&mut w, &path, rx, [pool_tx, large_tx], recorder))
         .map_err(|e| format!("cannot start the writer thread: {e}"))?;
     Ok(WriterHandle {
         tx,
         pool: pool_rx,
+        large_pool: large_rx,
         thread,
     })
 }
@@ -128,7 +139,7 @@ fn run(
     w: &mut mcap::Writer<File>,
     path: &Path,
     mut rx: rtrb::Consumer<WriterMsg>,
-    mut pool_tx: rtrb::Producer<Vec<u8>>,
+    mut pools: [rtrb::Producer<Vec<u8>>; 2],
     recorder: Thread,
 ) -> Result<WriterStats, String> {
     let err = |e: mcap::McapError| format!("{}: {e}", path.display());
@@ -154,8 +165,8 @@ fn run(
                 w.write_to_known_channel(&header, &m.buf).map_err(err)?;
                 stats.messages += 1;
                 stats.bytes += m.buf.len() as u64;
-                // The pool ring has room for every buffer.
-                let _ = pool_tx.push(m.buf);
+                // Each pool ring has room for all of its buffers.
+                let _ = pools[m.large as usize].push(m.buf);
                 recorder.unpark();
             }
             WriterMsg::Finish(meta) => {

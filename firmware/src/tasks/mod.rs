@@ -7,5 +7,6 @@ pub mod drive_output;
 pub mod health;
 pub mod imu_driver;
 pub mod io;
+pub mod lidar_driver;
 pub mod odometry;
 pub mod recorder;

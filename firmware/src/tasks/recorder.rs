@@ -28,11 +28,24 @@ pub struct RecorderTask<'r> {
     health_seen: u64,
     plan: Vec<[f64; 2]>,
     plan_looped: bool,
+    cloud_seen: u64,
+    /// base_link -> lidar: translation and (w, x, y, z) rotation.
+    lidar_mount: ([f64; 3], [f64; 4]),
 }
 
 impl<'r> RecorderTask<'r> {
-    pub fn new(tap: &'r RefCell<RecorderTap>, plan: Vec<[f64; 2]>, plan_looped: bool) -> Self {
+    pub fn new(
+        tap: &'r RefCell<RecorderTap>,
+        plan: Vec<[f64; 2]>,
+        plan_looped: bool,
+        mount_xyz: [f64; 3],
+        mount_rpy_deg: [f64; 3],
+    ) -> Self {
+        let [r, p, y] = mount_rpy_deg.map(f64::to_radians);
+        let q = nalgebra::UnitQuaternion::from_euler_angles(r, p, y).into_inner();
         RecorderTask {
+            cloud_seen: 0,
+            lidar_mount: (mount_xyz, [q.w, q.i, q.j, q.k]),
             tap,
             imu_cursor: 0,
             drives_seen: 0,
@@ -48,6 +61,7 @@ impl<'r> RecorderTask<'r> {
 fn raw_topic(d: Device) -> Topic {
     match d {
         Device::Lidar => Topic::RawLidar,
+        Device::LidarPosition => Topic::RawLidarPosition,
         Device::Imu => Topic::RawImu,
         Device::Can => Topic::RawCan,
     }
@@ -215,6 +229,26 @@ impl Task<Bus> for RecorderTask<'_> {
             };
             tap.emit(Topic::Drives, frame, now, d.stamp_ns, |w| {
                 serde_json::to_writer(w, &msg)
+            });
+        }
+
+        if let Some(c) = bus.cloud.newer_than(self.cloud_seen) {
+            self.cloud_seen = c.seq;
+            let ts = tap.time(c.stamp_ns);
+            let points = &c.value.points;
+            tap.emit_large(Topic::Cloud, frame, now, c.stamp_ns, |w| {
+                write_cloud(w, ts, points)
+            });
+            let (xyz, q) = self.lidar_mount;
+            let tf = FrameTransform {
+                timestamp: ts,
+                parent_frame_id: "base_link",
+                child_frame_id: "lidar",
+                translation: xyz.into(),
+                rotation: Quaternion::wxyz(q),
+            };
+            tap.emit(Topic::Tf, frame, now, c.stamp_ns, |w| {
+                serde_json::to_writer(w, &tf)
             });
         }
 
@@ -391,6 +425,55 @@ impl RecorderTask<'_> {
             serde_json::to_writer(w, &msg)
         });
     }
+}
+
+/// A foxglove.PointCloud in JSON: 20-byte points (x, y, z, time as f32,
+/// intensity and ring as u8, 2 bytes padding) streamed as base64 in chunks,
+/// so no buffer beyond the message itself is needed.
+fn write_cloud(
+    w: &mut crate::record::encode::Bounded<'_>,
+    ts: Time,
+    points: &[speleo_hal::hdl32e::Point],
+) -> std::io::Result<()> {
+    use base64::Engine;
+    use std::io::Write;
+    const STRIDE: usize = 20;
+    // 150 points = 3000 bytes, a multiple of 3: base64 padding only at the end.
+    const CHUNK: usize = 150;
+    write!(
+        w,
+        "{{\"timestamp\":{{\"sec\":{},\"nsec\":{}}},\"frame_id\":\"lidar\",\
+         \"pose\":{{\"position\":{{\"x\":0.0,\"y\":0.0,\"z\":0.0}},\
+         \"orientation\":{{\"x\":0.0,\"y\":0.0,\"z\":0.0,\"w\":1.0}}}},\
+         \"point_stride\":{STRIDE},\"fields\":[\
+         {{\"name\":\"x\",\"offset\":0,\"type\":7}},\
+         {{\"name\":\"y\",\"offset\":4,\"type\":7}},\
+         {{\"name\":\"z\",\"offset\":8,\"type\":7}},\
+         {{\"name\":\"time\",\"offset\":12,\"type\":7}},\
+         {{\"name\":\"intensity\",\"offset\":16,\"type\":1}},\
+         {{\"name\":\"ring\",\"offset\":17,\"type\":1}}],\"data\":\"",
+        ts.sec, ts.nsec
+    )?;
+    let mut raw = [0u8; CHUNK * STRIDE];
+    let mut text = [0u8; CHUNK * STRIDE / 3 * 4];
+    for chunk in points.chunks(CHUNK) {
+        for (i, p) in chunk.iter().enumerate() {
+            let o = i * STRIDE;
+            raw[o..o + 4].copy_from_slice(&p.x.to_le_bytes());
+            raw[o + 4..o + 8].copy_from_slice(&p.y.to_le_bytes());
+            raw[o + 8..o + 12].copy_from_slice(&p.z.to_le_bytes());
+            raw[o + 12..o + 16].copy_from_slice(&p.time.to_le_bytes());
+            raw[o + 16] = p.intensity;
+            raw[o + 17] = p.ring;
+            raw[o + 18] = 0;
+            raw[o + 19] = 0;
+        }
+        let n = base64::engine::general_purpose::STANDARD
+            .encode_slice(&raw[..chunk.len() * STRIDE], &mut text)
+            .map_err(std::io::Error::other)?;
+        w.write_all(&text[..n])?;
+    }
+    w.write_all(b"\"}")
 }
 
 #[derive(Serialize)]

@@ -11,8 +11,9 @@ const NMEA_LEN: usize = 72;
 pub struct PositionPacket {
     /// Microseconds past the hour.
     pub timestamp_us: u32,
-    /// The NMEA sentence ($GPRMC), without trailing NULs and line ends.
-    pub nmea: String,
+    /// The NMEA sentence ($GPRMC), without trailing NULs and line ends;
+    /// bytes that are not printable ASCII are left out.
+    pub nmea: heapless::String<NMEA_LEN>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,9 +44,12 @@ impl PositionPacket {
         ]);
         let raw = &b[NMEA_AT..NMEA_AT + NMEA_LEN];
         let end = raw.iter().position(|&c| c == 0).unwrap_or(raw.len());
-        let nmea = String::from_utf8_lossy(&raw[..end])
-            .trim_end_matches(['\r', '\n'])
-            .to_string();
+        let mut nmea = heapless::String::new();
+        for &c in &raw[..end] {
+            if (0x20..0x7F).contains(&c) {
+                let _ = nmea.push(c as char);
+            }
+        }
         Ok(PositionPacket {
             timestamp_us: ts,
             nmea,

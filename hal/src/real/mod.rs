@@ -14,6 +14,8 @@ use crate::{CanBus, HalError, Hardware, ImuPort, LidarSource, TimeSource};
 #[derive(Clone, Debug)]
 pub struct DeviceSettings {
     pub lidar_bind: String,
+    /// Where position packets are received (empty: not at all).
+    pub lidar_position_bind: String,
     pub lidar_sensor: String,
     pub imu_port: String,
     pub imu_baud: u32,
@@ -37,11 +39,18 @@ impl RealHardware {
         };
         let time: Arc<dyn TimeSource> = Arc::new(MonotonicTime::start());
         Ok(RealHardware {
-            lidar: udp_lidar::UdpLidar::bind(
-                addr("lidar_bind", &s.lidar_bind)?,
-                addr("lidar_sensor", &s.lidar_sensor)?,
-                time.clone(),
-            )?,
+            lidar: {
+                let l = udp_lidar::UdpLidar::bind(
+                    addr("lidar_bind", &s.lidar_bind)?,
+                    addr("lidar_sensor", &s.lidar_sensor)?,
+                    time.clone(),
+                )?;
+                if s.lidar_position_bind.is_empty() {
+                    l
+                } else {
+                    l.with_position(addr("lidar_position_bind", &s.lidar_position_bind)?)?
+                }
+            },
             imu: serial_imu::SerialImu::open(&s.imu_port, s.imu_baud, time.clone())?,
             can: socketcan::SocketCan::open(&s.can_interface, time)?,
         })

@@ -10,10 +10,12 @@ const MAX_DATAGRAM: usize = 1500;
 /// At most this many datagrams per poll, so one frame cannot be flooded.
 const MAX_PER_POLL: usize = 256;
 
-/// A non-blocking UDP socket that accepts datagrams only from the configured
-/// sensor address.
+/// Non-blocking UDP sockets (data, and optionally position packets) that
+/// accept datagrams only from the configured sensor's IP address.
 pub struct UdpLidar {
     socket: UdpSocket,
+    /// Position packets (UDP 8308), when bound.
+    position: Option<UdpSocket>,
     sensor: SocketAddr,
     buf: Box<[u8; MAX_DATAGRAM]>,
     /// Datagrams from other senders.
@@ -25,7 +27,9 @@ pub struct UdpLidar {
 }
 
 impl UdpLidar {
-    /// Bind `local` (e.g. `0.0.0.0:2368`) and accept only `sensor`.
+    /// Bind `local` (e.g. `0.0.0.0:2368`) and accept only datagrams from the
+    /// IP address of `sensor` (its data and position packets leave from
+    /// different ports).
     /// `time` stamps each datagram on receipt.
     pub fn bind(
         local: SocketAddr,
@@ -40,6 +44,7 @@ impl UdpLidar {
         socket.set_nonblocking(true).map_err(io)?;
         Ok(UdpLidar {
             socket,
+            position: None,
             sensor,
             buf: Box::new([0; MAX_DATAGRAM]),
             foreign: 0,
@@ -48,21 +53,38 @@ impl UdpLidar {
         })
     }
 
+    /// Also receive the sensor's position packets on `local`.
+    pub fn with_position(mut self, local: SocketAddr) -> Result<Self, HalError> {
+        let io = |source| HalError::Io {
+            device: "lidar_position",
+            source,
+        };
+        let s = UdpSocket::bind(local).map_err(io)?;
+        s.set_nonblocking(true).map_err(io)?;
+        self.position = Some(s);
+        Ok(self)
+    }
+
     pub fn local_addr(&self) -> Option<SocketAddr> {
         self.socket.local_addr().ok()
     }
 }
 
-impl LidarSource for UdpLidar {
-    fn poll(&mut self, _now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
+impl UdpLidar {
+    fn drain(&mut self, position: bool, sink: &mut dyn InputSink) -> Result<(), HalError> {
+        let (socket, device) = match (&self.position, position) {
+            (Some(p), true) => (p, Device::LidarPosition),
+            (None, true) => return Ok(()),
+            _ => (&self.socket, Device::Lidar),
+        };
         for _ in 0..MAX_PER_POLL {
-            match self.socket.recv_from(&mut self.buf[..]) {
+            match socket.recv_from(&mut self.buf[..]) {
                 Ok((n, from)) => {
-                    if from != self.sensor {
+                    if from.ip() != self.sensor.ip() {
                         self.foreign += 1;
                         continue;
                     }
-                    sink.input(Device::Lidar, self.time.now_ns(), &self.buf[..n]);
+                    sink.input(device, self.time.now_ns(), &self.buf[..n]);
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => return Ok(()),
                 Err(e) if e.kind() == ErrorKind::Interrupted => continue,
@@ -76,6 +98,13 @@ impl LidarSource for UdpLidar {
         }
         self.saturated_polls += 1;
         Ok(())
+    }
+}
+
+impl LidarSource for UdpLidar {
+    fn poll(&mut self, _now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
+        self.drain(false, sink)?;
+        self.drain(true, sink)
     }
 }
 
@@ -93,7 +122,8 @@ mod tests {
     #[test]
     fn only_the_sensor_is_heard() {
         let sensor = UdpSocket::bind("127.0.0.1:0").expect("bind sensor");
-        let stranger = UdpSocket::bind("127.0.0.1:0").expect("bind stranger");
+        // Another host: any other address of the loopback range.
+        let stranger = UdpSocket::bind("127.0.0.2:0").expect("bind stranger");
         let mut lidar = UdpLidar::bind(
             "127.0.0.1:0".parse().expect("addr"),
             sensor.local_addr().expect("addr"),
