@@ -48,7 +48,7 @@ impl OutputConfig {
     }
 
     pub fn parse(payload: &[u8]) -> Result<Self, OutputConfigError> {
-        if payload.len() % 4 != 0 {
+        if !payload.len().is_multiple_of(4) {
             return Err(OutputConfigError::OddLength(payload.len()));
         }
         if payload.len() / 4 > MAX_OUTPUTS {

@@ -22,7 +22,7 @@ pub enum LineError {
 
 fn hex_bytes(s: &str) -> Option<heapless::Vec<u8, 8>> {
     let s = s.trim();
-    if s.len() % 2 != 0 || s.len() > 16 {
+    if !s.len().is_multiple_of(2) || s.len() > 16 {
         return None;
     }
     let mut out = heapless::Vec::new();

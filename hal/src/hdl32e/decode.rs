@@ -221,8 +221,8 @@ impl Decoder {
     /// Azimuth step of each block (hundredths of a degree).
     pub fn block_steps(p: &DataPacket) -> [u32; BLOCKS] {
         let mut d = [0u32; BLOCKS];
-        for b in 0..BLOCKS - 1 {
-            d[b] = azimuth_step(p.blocks[b].azimuth, p.blocks[b + 1].azimuth);
+        for (s, pair) in d.iter_mut().zip(p.blocks.windows(2)) {
+            *s = azimuth_step(pair[0].azimuth, pair[1].azimuth);
         }
         d[BLOCKS - 1] = d[BLOCKS - 2];
         d

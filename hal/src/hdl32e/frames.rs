@@ -123,7 +123,7 @@ impl FrameAssembler {
                 points.clear();
                 start = block_us(split as u8);
             }
-            pt.time = ((block_us(0) - start) * 1e-6) as f32 + pt.time;
+            pt.time += ((block_us(0) - start) * 1e-6) as f32;
             if points.len() < points.capacity() {
                 points.push(pt);
             } else {

@@ -196,7 +196,7 @@ impl SimImu {
             } else {
                 (rate / freq as usize).max(1)
             };
-            if self.sample % every != 0 {
+            if !self.sample.is_multiple_of(every) {
                 continue;
             }
             let mut item = [0u8; 3 + 8 * 4];
