@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The project's test command (README.md): format check, clippy with warnings
-# denied, and every test of the workspace. Needs only a Rust toolchain with
-# rustfmt and clippy; everything else is a crate fetched by cargo.
+# denied, every test of the workspace, then each fuzz target for a bounded
+# time (SPELEO_FUZZ_SECONDS, default 15; 0 skips). Needs only a Rust
+# toolchain with rustfmt and clippy; everything else is fetched by cargo.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,3 +21,5 @@ echo "== the executive's core without std"
 cargo check -p speleo-scheduler --no-default-features --locked
 echo "== cargo test"
 cargo test --workspace --locked
+echo "== fuzz targets"
+bash ci/fuzz.sh
