@@ -309,13 +309,12 @@ fn an_imported_capture_replays_through_the_lidar_driver() {
         .channels
         .values()
         .find(|c| c.topic == "/lidar/points")
-        .map(|c| {
+        .and_then(|c| {
             summary
                 .stats
                 .as_ref()
                 .and_then(|s| s.channel_message_counts.get(&c.id).copied())
         })
-        .flatten()
         .unwrap_or(0);
     assert_eq!(clouds, 18, "revolutions completed in the capture");
 }
