@@ -49,6 +49,21 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
+    // The whole path from the capture file, as velodyne-decoder's read_pcap.
+    g.bench_function(format!("pcap_file_to_frames_{total}_points"), |b| {
+        b.iter(|| {
+            let (dgrams, _) = speleo_hal::pcap::read_udp(&pcap).expect("capture");
+            let mut asm = speleo_hal::hdl32e::FrameAssembler::new(Decoder::new(&cal), 0.0, 200_000);
+            let mut n = 0usize;
+            for d in dgrams.iter().filter(|d| d.dst.port() == DATA_PORT) {
+                if let Ok(p) = DataPacket::parse(&d.payload) {
+                    asm.push(&p, |f| n += f.points.len());
+                }
+            }
+            asm.flush(|f| n += f.points.len());
+            std::hint::black_box(n)
+        })
+    });
     g.finish();
 }
 

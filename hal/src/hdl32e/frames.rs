@@ -163,3 +163,83 @@ impl FrameAssembler {
         self.points.clear();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::encode::{Firing, PacketEncoder};
+    use super::super::{Calibration, LASERS};
+    use super::*;
+
+    /// Packets of a sensor turning 0.2 deg per block from `az0`, one return
+    /// per block, timestamps 552.96 us apart from `t0`.
+    fn packets(n: usize, az0: u32, t0: u32) -> Vec<DataPacket> {
+        let mut enc = PacketEncoder::new(Calibration::nominal());
+        let mut out = Vec::new();
+        let mut k = 0u32;
+        while out.len() < n {
+            let mut f = Firing {
+                azimuth: ((az0 + 20 * k) % 36000) as u16,
+                distance_m: [0.0; LASERS],
+                intensity: [0; LASERS],
+            };
+            f.distance_m[0] = 5.0;
+            let t = t0.wrapping_add((out.len() as f64 * PACKET_PERIOD_US) as u32) % 3_600_000_000;
+            if let Some(b) = enc.push(&f, t) {
+                out.push(DataPacket::parse(&b).expect("valid"));
+            }
+            k += 1;
+        }
+        out
+    }
+
+    fn assembler() -> FrameAssembler {
+        FrameAssembler::new(Decoder::new(&Calibration::nominal()), 0.0, 10_000)
+    }
+
+    #[test]
+    fn a_revolution_is_one_frame_split_at_the_cut_angle() {
+        // 36000 / 20 = 1800 blocks = 150 packets a revolution.
+        let mut a = assembler();
+        let mut sizes = Vec::new();
+        for p in packets(400, 0, 0) {
+            a.push(&p, |f| sizes.push(f.points.len()));
+        }
+        assert_eq!(sizes, vec![1800, 1800]);
+        assert_eq!(a.counters.lost_packets + a.counters.out_of_order, 0);
+    }
+
+    #[test]
+    fn gaps_count_as_lost_and_going_back_as_out_of_order() {
+        let mut a = assembler();
+        let ps = packets(10, 0, 1000);
+        for (i, p) in ps.iter().enumerate() {
+            if i != 3 && i != 4 {
+                a.push(p, |_| {});
+            }
+        }
+        assert_eq!(a.counters.lost_packets, 2);
+        a.push(&ps[2], |_| {});
+        assert_eq!(a.counters.out_of_order, 1);
+        assert_eq!(a.counters.packets, 8);
+    }
+
+    #[test]
+    fn the_hourly_timestamp_wrap_is_not_a_loss() {
+        let mut a = assembler();
+        for p in packets(10, 0, 3_600_000_000 - 2000) {
+            a.push(&p, |_| {});
+        }
+        assert_eq!(a.counters.lost_packets, 0);
+        assert_eq!(a.counters.out_of_order, 0);
+        assert_eq!(a.counters.packets, 10);
+    }
+
+    #[test]
+    fn a_full_buffer_drops_and_counts() {
+        let mut a = FrameAssembler::new(Decoder::new(&Calibration::nominal()), 0.0, 100);
+        for p in packets(20, 0, 0) {
+            a.push(&p, |_| {});
+        }
+        assert_eq!(a.counters.dropped_points, 20 * 12 - 100);
+    }
+}
