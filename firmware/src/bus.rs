@@ -38,8 +38,11 @@ pub struct LidarCounters {
     pub bad_length: u64,
     pub bad_flag: u64,
     pub bad_azimuth: u64,
+    pub bad_timestamp: u64,
     pub lost_packets: u64,
     pub out_of_order: u64,
+    pub resyncs: u64,
+    pub gaps: u64,
     pub dropped_points: u64,
     pub frames: u64,
     /// Frames not published because every buffer was in use.

@@ -174,6 +174,7 @@ pub fn run<C: FrameClock>(
             command_timeout_ns: cfg.control.command_timeout_ms as u64 * 1_000_000,
             retry_ns: 200_000_000,
             boot_grace_ns: cfg.health.startup_grace_ms as u64 * 1_000_000,
+            max_velocity: (cfg.rover.max_wheel_speed * 1000.0).round() as i32,
         });
     let h = &cfg.health;
     let mut t_health = health::HealthTask::new(

@@ -15,6 +15,7 @@ fuzz_target!(|data: &[u8]| {
         command_timeout_ns: 100,
         retry_ns: 50,
         boot_grace_ns: 1000,
+        max_velocity: 5000,
     });
     for (t, rec) in data.chunks(16).enumerate() {
         let Ok(f) = CanFrame::from_socketcan(rec) else {

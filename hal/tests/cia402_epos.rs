@@ -63,6 +63,7 @@ fn the_captured_epos_sequence_reaches_operation_enabled() {
         command_timeout_ns: 100_000_000,
         retry_ns: 100_000_000,
         boot_grace_ns: u64::MAX / 2,
+        max_velocity: 10_000,
     });
     let mut t = 10;
     let mut checked = 0;

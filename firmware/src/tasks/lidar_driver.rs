@@ -47,6 +47,10 @@ impl Task<Bus> for LidarDriver {
                     c.bad_azimuth += 1;
                     continue;
                 }
+                Err(PacketError::BadTimestamp(_)) => {
+                    c.bad_timestamp += 1;
+                    continue;
+                }
             };
             let t = entry.receive_time_ns;
             self.assembler.push(&p, |f| {
@@ -82,6 +86,8 @@ impl Task<Bus> for LidarDriver {
         let a = self.assembler.counters;
         c.lost_packets = a.lost_packets;
         c.out_of_order = a.out_of_order;
+        c.resyncs = a.resyncs;
+        c.gaps = a.gaps;
         c.dropped_points = a.dropped_points;
         c.frames = a.frames;
     }

@@ -486,6 +486,7 @@ struct StopJson {
     fault: u8,
     not_ready: u8,
     sdo_refused: u8,
+    bad_command: bool,
 }
 
 impl From<speleo_hal::canopen::supervisor::StopReasons> for StopJson {
@@ -499,6 +500,7 @@ impl From<speleo_hal::canopen::supervisor::StopReasons> for StopJson {
             fault: r.fault,
             not_ready: r.not_ready,
             sdo_refused: r.sdo_refused,
+            bad_command: r.bad_command,
         }
     }
 }

@@ -38,7 +38,7 @@ pub fn run(capture: &Path, o: &Options<'_>, out: &mut dyn Write) -> Result<(), E
         }
         None => None,
     };
-    let mut bad = [0u64; 3];
+    let mut bad = [0u64; 4];
     let mut positions = 0u64;
     let mut bad_positions = 0u64;
     let mut first_nmea = None;
@@ -73,6 +73,7 @@ pub fn run(capture: &Path, o: &Options<'_>, out: &mut dyn Write) -> Result<(), E
                     Err(PacketError::WrongLength(_)) => bad[0] += 1,
                     Err(PacketError::BadFlag { .. }) => bad[1] += 1,
                     Err(PacketError::BadAzimuth { .. }) => bad[2] += 1,
+                    Err(PacketError::BadTimestamp(_)) => bad[3] += 1,
                 }
             }
             POSITION_PORT => match PositionPacket::parse(&d.payload) {
@@ -95,13 +96,13 @@ pub fn run(capture: &Path, o: &Options<'_>, out: &mut dyn Write) -> Result<(), E
     let c = asm.counters;
     writeln!(
         out,
-        "{frames} frames, {total} points from {data} data packets ({} bad length, {} bad block flag, {} bad azimuth)",
-        bad[0], bad[1], bad[2]
+        "{frames} frames, {total} points from {data} data packets ({} bad length, {} bad block flag, {} bad azimuth, {} bad timestamp)",
+        bad[0], bad[1], bad[2], bad[3]
     )?;
     writeln!(
         out,
-        "lost packets {}, out of order {}, dropped points {}",
-        c.lost_packets, c.out_of_order, c.dropped_points
+        "lost packets {}, out of order {}, clock jumps followed {}, gaps {}, dropped points {}",
+        c.lost_packets, c.out_of_order, c.resyncs, c.gaps, c.dropped_points
     )?;
     writeln!(
         out,

@@ -100,7 +100,7 @@ impl DrivesState {
                     if state == NmtState::BootUp {
                         // A (re)booted drive starts over.
                         *n = NodeFeedback {
-                            boot_ups: n.boot_ups + 1,
+                            boot_ups: n.boot_ups.saturating_add(1),
                             emergencies: n.emergencies,
                             last_emergency: n.last_emergency,
                             ..NodeFeedback::default()
@@ -148,7 +148,10 @@ impl DrivesState {
             },
             Event::Emcy { node, code, .. } => match wheel_of(node) {
                 Some(w) => {
-                    self.nodes[w].emergencies += 1;
+                    // Code 0 is "error reset / no error": the emergency is over.
+                    if code != 0 {
+                        self.nodes[w].emergencies = self.nodes[w].emergencies.saturating_add(1);
+                    }
                     self.nodes[w].last_emergency = code;
                     true
                 }
@@ -168,7 +171,17 @@ impl DrivesState {
                     self.nodes[w].mode_set = true;
                     true
                 }
-                (Some(w), Sdo::Abort { code, .. }) => {
+                // Only the answer to our own request (modes of operation)
+                // counts; a service tool's failed read of another object
+                // is not the drive's failure.
+                (
+                    Some(w),
+                    Sdo::Abort {
+                        index: 0x6060,
+                        code,
+                        ..
+                    },
+                ) => {
                     self.nodes[w].sdo_abort = Some(code);
                     true
                 }
@@ -200,6 +213,8 @@ pub struct SupervisorParams {
     pub retry_ns: u64,
     /// A drive never heard from within this time after start is lost.
     pub boot_grace_ns: u64,
+    /// Largest target velocity sent, mrad/s at the wheel.
+    pub max_velocity: i32,
 }
 
 /// Why the wheels are held at zero (empty when they may turn).
@@ -216,6 +231,8 @@ pub struct StopReasons {
     pub not_ready: u8,
     /// Bit w: drive w refused an SDO (abort).
     pub sdo_refused: u8,
+    /// The wheel command holds a value that is not a number.
+    pub bad_command: bool,
 }
 
 impl StopReasons {
@@ -227,12 +244,13 @@ impl StopReasons {
             || self.fault != 0
             || self.not_ready != 0
             || self.sdo_refused != 0
+            || self.bad_command
     }
 
     /// Reasons that mean something is wrong (not just starting up or idle):
     /// the ones the health monitor answers with the safe schedule.
     pub fn failures(&self) -> bool {
-        self.heartbeat_lost != 0 || self.fault != 0 || self.sdo_refused != 0
+        self.heartbeat_lost != 0 || self.fault != 0 || self.sdo_refused != 0 || self.bad_command
     }
 }
 
@@ -240,6 +258,7 @@ pub struct Supervisor {
     p: SupervisorParams,
     last_sdo_ns: [Option<u64>; WHEELS],
     last_nmt_ns: [Option<u64>; WHEELS],
+    last_preop_ns: [Option<u64>; WHEELS],
 }
 
 impl Supervisor {
@@ -248,6 +267,7 @@ impl Supervisor {
             p,
             last_sdo_ns: [None; WHEELS],
             last_nmt_ns: [None; WHEELS],
+            last_preop_ns: [None; WHEELS],
         }
     }
 
@@ -275,6 +295,7 @@ impl Supervisor {
         };
         match command {
             None => r.no_command = true,
+            Some((_, speeds)) if speeds.iter().any(|v| !v.is_finite()) => r.bad_command = true,
             Some((stamp, _)) if now.saturating_sub(stamp) > self.p.command_timeout_ns => {
                 r.stale_command = true
             }
@@ -306,6 +327,13 @@ impl Supervisor {
             if n.nmt.is_none() || n.sdo_abort.is_some() {
                 continue; // not heard yet, or refused: nothing to say to it
             }
+            if n.nmt == Some(NmtState::Stopped) {
+                // SDO is not served in Stopped: back to pre-operational first.
+                if Self::due(&mut self.last_preop_ns[w], now, self.p.retry_ns) {
+                    out(nmt(NmtCommand::EnterPreOperational, node));
+                }
+                continue;
+            }
             if !n.mode_set {
                 if Self::due(&mut self.last_sdo_ns[w], now, self.p.retry_ns) {
                     out(Sdo::DownloadRequest {
@@ -333,7 +361,8 @@ impl Supervisor {
             };
             let velocity = match command {
                 Some((_, speeds)) if !hold && n.state == DriveState::OperationEnabled => {
-                    (speeds[w] * 1000.0).round() as i32
+                    let m = self.p.max_velocity as f64;
+                    (speeds[w] * 1000.0).round().clamp(-m, m) as i32
                 }
                 _ => 0,
             };
@@ -355,6 +384,7 @@ mod tests {
             command_timeout_ns: 100_000_000,
             retry_ns: 200_000_000,
             boot_grace_ns: 1_000_000_000,
+            max_velocity: 5_000,
         }
     }
 
@@ -449,6 +479,54 @@ mod tests {
             _ => None,
         });
         assert_eq!(cw3, Some(cia402::controlword::DISABLE_VOLTAGE));
+    }
+
+    #[test]
+    fn speeds_are_clamped_and_nan_holds_everything() {
+        let s = running(1_000);
+        let (frames, r) = plan(&s, 2_000, Some((1_500, [9.0, -9.0, 1.0, 1.0])));
+        assert!(!r.any());
+        assert_eq!(velocities(&frames), vec![5000, -5000, 1000, 1000]);
+        let (frames, r) = plan(&s, 2_000, Some((1_500, [1.0, f64::NAN, 1.0, 1.0])));
+        assert!(r.bad_command && r.failures());
+        assert_eq!(velocities(&frames), vec![0; 4]);
+    }
+
+    #[test]
+    fn a_stopped_drive_is_brought_back_and_foreign_aborts_do_not_latch() {
+        let mut s = DrivesState::default();
+        let mut c = InputCounters::default();
+        s.apply(&heartbeat(1, NmtState::Stopped), 10, &mut c);
+        let mut sup = Supervisor::new(params());
+        let mut frames = Vec::new();
+        sup.plan(20, &s, None, false, &mut |f| frames.push(f));
+        assert_eq!(
+            (frames[0].id, frames[0].payload()),
+            (0x000, &[0x80, 0x01][..])
+        );
+        // Someone else's read of a missing object is refused: not our failure.
+        s.apply(
+            &Sdo::Abort {
+                index: 0x2000,
+                sub: 0,
+                code: 0x0602_0000,
+            }
+            .response(1),
+            30,
+            &mut c,
+        );
+        assert_eq!(s.nodes[0].sdo_abort, None);
+        s.apply(
+            &Sdo::Abort {
+                index: 0x6060,
+                sub: 0,
+                code: 0x0609_0030,
+            }
+            .response(1),
+            40,
+            &mut c,
+        );
+        assert_eq!(s.nodes[0].sdo_abort, Some(0x0609_0030));
     }
 
     #[test]

@@ -58,6 +58,29 @@ fn rings(lasers: &[LaserCal; LASERS]) -> [u8; LASERS] {
 }
 
 impl Calibration {
+    fn checked(lasers: [LaserCal; LASERS], distance_lsb_m: f64) -> Result<Self, CalibError> {
+        if !(distance_lsb_m.is_finite() && distance_lsb_m > 0.0 && distance_lsb_m < 1.0) {
+            return Err(CalibError::Format(format!(
+                "distance unit {distance_lsb_m} m is not a positive length under 1 m"
+            )));
+        }
+        for (i, l) in lasers.iter().enumerate() {
+            let v = [
+                l.vert_deg,
+                l.rot_deg,
+                l.dist_correction_m,
+                l.vert_offset_m,
+                l.horiz_offset_m,
+            ];
+            if v.iter().any(|x| !x.is_finite()) || l.vert_deg.abs() > 90.0 {
+                return Err(CalibError::Format(format!(
+                    "laser {i}: corrections out of range"
+                )));
+            }
+        }
+        Ok(Self::new(lasers, distance_lsb_m))
+    }
+
     pub fn new(lasers: [LaserCal; LASERS], distance_lsb_m: f64) -> Self {
         Calibration {
             ring: rings(&lasers),
@@ -143,6 +166,9 @@ impl Calibration {
             if id >= LASERS {
                 continue;
             }
+            if seen[id] {
+                return Err(CalibError::Format(format!("laser {id} appears twice")));
+            }
             for tag in [
                 "distCorrectionX_",
                 "distCorrectionY_",
@@ -167,7 +193,7 @@ impl Calibration {
         if let Some(missing) = seen.iter().position(|s| !s) {
             return Err(CalibError::Format(format!("laser {missing} is missing")));
         }
-        Ok(Self::new(lasers, lsb_cm * 0.01))
+        Self::checked(lasers, lsb_cm * 0.01)
     }
 
     /// The ROS velodyne driver's YAML (`lasers:` list, angles in radians,
@@ -203,6 +229,9 @@ impl Calibration {
                 .ok()
                 .filter(|i| *i < LASERS)
                 .ok_or_else(|| CalibError::Format(format!("laser_id {id} is not 0..32")))?;
+            if seen[id] {
+                return Err(CalibError::Format(format!("laser {id} appears twice")));
+            }
             for key in [
                 "dist_correction_x",
                 "dist_correction_y",
@@ -228,7 +257,7 @@ impl Calibration {
             return Err(CalibError::Format(format!("laser {missing} is missing")));
         }
         let lsb = doc["distance_resolution"].as_f64().unwrap_or(0.002);
-        Ok(Self::new(lasers, lsb))
+        Self::checked(lasers, lsb)
     }
 }
 

@@ -33,6 +33,8 @@ pub struct Point {
     pub laser: u8,
     /// Block of the packet the point came from.
     pub block: u8,
+    /// In a dual-return packet, which block of the pair (0 or 1); else 0.
+    pub return_index: u8,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -83,6 +85,10 @@ pub struct Decoder {
 }
 
 const HUNDREDTH_RAD: f64 = core::f64::consts::PI / 18000.0;
+/// Largest believable azimuth step between firings (3 deg; 0.4 deg at the
+/// top speed of 20 Hz). A larger one comes from a damaged or reordered
+/// block: the laser azimuths are then not interpolated.
+pub const MAX_STEP_HUNDREDTHS: u32 = 300;
 
 /// Azimuth step from `a` to `b` in hundredths of a degree, across the wrap.
 #[inline]
@@ -201,6 +207,7 @@ impl Decoder {
                     ring: k.ring,
                     laser: l as u8,
                     block: b as u8,
+                    return_index: 0,
                 });
             }
         }
@@ -218,14 +225,23 @@ impl Decoder {
         }
     }
 
-    /// Azimuth step of each block (hundredths of a degree).
+    /// Azimuth step from each block's firing to the next firing
+    /// (hundredths of a degree); the last firing reuses the previous step.
+    /// Steps above [`MAX_STEP_HUNDREDTHS`] are taken as 0.
     pub fn block_steps(p: &DataPacket) -> [u32; BLOCKS] {
+        let k = p.blocks_per_firing();
         let mut d = [0u32; BLOCKS];
-        for (s, pair) in d.iter_mut().zip(p.blocks.windows(2)) {
-            *s = azimuth_step(pair[0].azimuth, pair[1].azimuth);
+        for b in (0..BLOCKS).rev() {
+            d[b] = if b + k < BLOCKS {
+                azimuth_step(p.blocks[b].azimuth, p.blocks[b + k].azimuth)
+            } else {
+                0
+            };
         }
-        d[BLOCKS - 1] = d[BLOCKS - 2];
-        d
+        for b in BLOCKS - k..BLOCKS {
+            d[b] = d[b - k];
+        }
+        d.map(|s| if s > MAX_STEP_HUNDREDTHS { 0 } else { s })
     }
 
     /// Call `f` for every non-zero return of the packet, block by block and
@@ -237,12 +253,15 @@ impl Decoder {
         }
         let pairs = self.mode == Interpolation::FixedPairs;
         let steps = Self::block_steps(p);
+        let per_firing = p.blocks_per_firing();
         for (b, blk) in p.blocks.iter().enumerate() {
             // Sensors report 360.00 deg as 36000 at times.
             let az = (blk.azimuth % 36000) as f64;
             let (s0, c0) = (az * HUNDREDTH_RAD).sin_cos();
             let step = steps[b] as f64;
-            let t_block = b as f64 * BLOCK_PERIOD_NS * 1e-9;
+            // Both blocks of a dual-return pair come from one firing.
+            let t_block = (b / per_firing) as f64 * BLOCK_PERIOD_NS * 1e-9;
+            let return_index = (b % per_firing) as u8;
             for l in 0..LASERS {
                 let raw = blk.distance[l];
                 if raw == 0 {
@@ -287,6 +306,7 @@ impl Decoder {
                     ring: k.ring,
                     laser: l as u8,
                     block: b as u8,
+                    return_index,
                 });
             }
         }

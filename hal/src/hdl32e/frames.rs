@@ -1,11 +1,17 @@
 //! Assembling packets into frames (revolutions).
 //!
 //! A new frame starts at the first block whose azimuth, measured from the cut
-//! angle, is smaller than the previous block's: the scan crossed the cut
-//! angle. Point times are made relative to the first firing of the frame.
-//! Zero-range returns are dropped by the decoder. Packets whose timestamp goes
-//! backwards are dropped and counted; gaps in the timestamps count as lost
-//! packets.
+//! angle, is more than half a turn smaller than the previous block's: the
+//! scan crossed the cut angle (a small step back is jitter, not a new turn).
+//! A gap in the timestamps longer than a revolution also ends the frame.
+//! Point times are made relative to the first firing of the frame.
+//! Zero-range returns are dropped by the decoder.
+//!
+//! Timestamps count microseconds past the hour. A packet whose timestamp is
+//! not after the previous one is a duplicate or late and is dropped (counted);
+//! after [`RESYNC_AFTER`] such packets in a row the assembler follows the
+//! sensor's clock again (it jumped, or one earlier packet was bogus). Short
+//! gaps count as lost packets.
 
 use super::decode::{Decoder, Point};
 use super::packet::DataPacket;
@@ -14,6 +20,10 @@ use super::{BLOCKS, BLOCK_PERIOD_NS};
 /// Nominal time between two data packets.
 pub const PACKET_PERIOD_US: f64 = BLOCKS as f64 * BLOCK_PERIOD_NS / 1000.0;
 const HOUR_US: i64 = 3_600_000_000;
+/// Out-of-order packets in a row after which the sensor's clock is followed.
+pub const RESYNC_AFTER: u32 = 16;
+/// A gap longer than one revolution at the slowest rate (5 Hz) ends a frame.
+pub const MAX_GAP_US: i64 = 200_000;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FrameCounters {
@@ -24,8 +34,12 @@ pub struct FrameCounters {
     pub dropped_points: u64,
     /// Packets missing according to the timestamps.
     pub lost_packets: u64,
-    /// Packets older than the previous one (dropped).
+    /// Packets not newer than the previous one (dropped).
     pub out_of_order: u64,
+    /// Times the assembler followed a jump of the sensor's clock.
+    pub resyncs: u64,
+    /// Gaps longer than a revolution (the frame in progress was ended).
+    pub gaps: u64,
 }
 
 /// A completed frame.
@@ -47,6 +61,8 @@ pub struct FrameAssembler {
     start_us: Option<f64>,
     /// Hours added to timestamps after wraps, so time keeps increasing.
     hours: i64,
+    /// Out-of-order packets in a row.
+    behind: u32,
     index: u64,
     pub counters: FrameCounters,
 }
@@ -64,6 +80,7 @@ impl FrameAssembler {
             last_ts: None,
             start_us: None,
             hours: 0,
+            behind: 0,
             index: 0,
             counters: FrameCounters::default(),
         }
@@ -71,20 +88,46 @@ impl FrameAssembler {
 
     /// Add a packet; `on_frame` is called for each frame it completes.
     pub fn push(&mut self, p: &DataPacket, mut on_frame: impl FnMut(&Frame<'_>)) {
+        let mut restart = false;
         if let Some(last) = self.last_ts {
+            // Time since the previous packet, taking the hourly wrap into
+            // account in both directions.
             let mut dt = p.timestamp_us as i64 - last as i64;
-            if dt < -HOUR_US / 2 {
-                // The microseconds-past-the-hour counter wrapped.
-                self.hours += 1;
+            let mut wrapped = 0;
+            if dt <= -HOUR_US / 2 {
                 dt += HOUR_US;
-            } else if dt < 0 {
+                wrapped = 1;
+            } else if dt > HOUR_US / 2 {
+                dt -= HOUR_US;
+                wrapped = -1;
+            }
+            if dt <= 0 {
                 self.counters.out_of_order += 1;
-                return;
+                self.behind += 1;
+                if self.behind < RESYNC_AFTER {
+                    return;
+                }
+                // The sensor's clock jumped back (or a packet before was
+                // bogus): follow it, in a new frame.
+                self.counters.resyncs += 1;
+                restart = true;
+            } else if dt > MAX_GAP_US {
+                self.counters.gaps += 1;
+                self.hours += wrapped.max(0);
+                restart = true;
+            } else {
+                self.hours += wrapped.max(0);
+                let missing = (dt as f64 / PACKET_PERIOD_US).round() as i64 - 1;
+                if missing > 0 {
+                    self.counters.lost_packets += missing as u64;
+                }
             }
-            let missing = (dt as f64 / PACKET_PERIOD_US).round() as i64 - 1;
-            if missing > 0 {
-                self.counters.lost_packets += missing as u64;
-            }
+        }
+        self.behind = 0;
+        if restart {
+            self.flush(&mut on_frame);
+            self.last_rel = None;
+            self.start_us = None;
         }
         self.last_ts = Some(p.timestamp_us);
         self.counters.packets += 1;
@@ -94,7 +137,7 @@ impl FrameAssembler {
         let mut first_block_of_new = None;
         for (b, blk) in p.blocks.iter().enumerate() {
             let rel = super::decode::azimuth_step(self.cut, blk.azimuth);
-            if self.last_rel.is_some_and(|l| rel < l) && first_block_of_new.is_none() {
+            if self.last_rel.is_some_and(|l| l > rel + 18_000) && first_block_of_new.is_none() {
                 first_block_of_new = Some(b);
             }
             self.last_rel = Some(rel);
@@ -147,7 +190,7 @@ impl FrameAssembler {
         self.counters.dropped_points += lost;
     }
 
-    /// Emit the partial frame in progress (end of a capture).
+    /// Emit the partial frame in progress (end of a capture, or a gap).
     pub fn flush(&mut self, mut on_frame: impl FnMut(&Frame<'_>)) {
         if self.points.is_empty() {
             return;
@@ -221,6 +264,45 @@ mod tests {
         a.push(&ps[2], |_| {});
         assert_eq!(a.counters.out_of_order, 1);
         assert_eq!(a.counters.packets, 8);
+    }
+
+    #[test]
+    fn a_clock_jump_is_followed_after_a_few_packets() {
+        let mut a = assembler();
+        let ps = packets(40, 0, 1_000_000);
+        for p in &ps[..5] {
+            a.push(p, |_| {});
+        }
+        // One bogus packet ten minutes ahead...
+        let mut bogus = ps[5];
+        bogus.timestamp_us += 600_000_000;
+        a.push(&bogus, |_| {});
+        assert_eq!(a.counters.gaps, 1);
+        // ...then the real ones look old; after RESYNC_AFTER they are followed.
+        for p in &ps[6..] {
+            a.push(p, |_| {});
+        }
+        assert_eq!(a.counters.out_of_order, RESYNC_AFTER as u64);
+        assert_eq!(a.counters.resyncs, 1);
+        assert_eq!(a.counters.packets, 6 + 1 + (40 - 6 - RESYNC_AFTER as u64));
+    }
+
+    #[test]
+    fn duplicates_are_dropped_and_jitter_does_not_split() {
+        let mut a = assembler();
+        let ps = packets(20, 100, 0);
+        let mut frames = 0;
+        for p in &ps {
+            a.push(p, |_| frames += 1);
+            a.push(p, |_| frames += 1);
+        }
+        assert_eq!(a.counters.out_of_order, 20);
+        // A block one hundredth behind its predecessor is not a new turn.
+        let mut j = ps[19];
+        j.timestamp_us += 600;
+        j.blocks[0].azimuth -= 1;
+        a.push(&j, |_| frames += 1);
+        assert_eq!(frames, 0);
     }
 
     #[test]

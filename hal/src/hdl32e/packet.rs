@@ -5,6 +5,20 @@ use super::{BLOCKS, LASERS, PACKET_LEN};
 
 /// Upper block flag: bytes `FF EE` (0xEEFF little-endian).
 pub const BLOCK_FLAG: u16 = 0xEEFF;
+/// Return-mode factory byte of dual-return packets: blocks come in pairs
+/// from the same firing (same azimuth).
+pub const DUAL_RETURN: u8 = 0x39;
+
+impl DataPacket {
+    /// Blocks per firing: 2 in dual-return mode, else 1.
+    pub fn blocks_per_firing(&self) -> usize {
+        if self.factory[0] == DUAL_RETURN {
+            2
+        } else {
+            1
+        }
+    }
+}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PacketError {
@@ -20,6 +34,8 @@ pub enum PacketError {
         block: usize,
         azimuth: u16,
     },
+    /// The timestamp is not a time within the hour (>= 3.6e9 us).
+    BadTimestamp(u32),
 }
 
 impl core::fmt::Display for PacketError {
@@ -31,6 +47,9 @@ impl core::fmt::Display for PacketError {
             }
             PacketError::BadAzimuth { block, azimuth } => {
                 write!(f, "block {block} azimuth {azimuth} (> 36000)")
+            }
+            PacketError::BadTimestamp(t) => {
+                write!(f, "timestamp {t} us is not within an hour")
             }
         }
     }
@@ -99,9 +118,13 @@ impl DataPacket {
                 blk.intensity[l] = b[p + 2];
             }
         }
+        let timestamp_us = u32::from_le_bytes([b[1200], b[1201], b[1202], b[1203]]);
+        if timestamp_us >= 3_600_000_000 {
+            return Err(PacketError::BadTimestamp(timestamp_us));
+        }
         Ok(DataPacket {
             blocks,
-            timestamp_us: u32::from_le_bytes([b[1200], b[1201], b[1202], b[1203]]),
+            timestamp_us,
             factory: [b[1204], b[1205]],
         })
     }

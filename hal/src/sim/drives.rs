@@ -56,6 +56,8 @@ struct Drive {
     /// Is this drive's power (and CAN transceiver) on? Tests switch it off.
     powered: bool,
     next_heartbeat_ns: u64,
+    /// When a booting drive sends its boot-up message.
+    boot_at_ns: u64,
 }
 
 pub struct SimDrives {
@@ -69,7 +71,7 @@ pub struct SimDrives {
 impl SimDrives {
     pub fn new(p: DriveParams) -> Self {
         SimDrives {
-            p,
+            p: p.clone(),
             drives: [Drive {
                 state: DriveState::SwitchOnDisabled,
                 last_controlword: 0,
@@ -81,6 +83,7 @@ impl SimDrives {
                 mode: 0,
                 powered: true,
                 next_heartbeat_ns: 0,
+                boot_at_ns: p.boot_ns,
             }; WHEELS],
             outbox: Outbox::new(),
             unknown_frames: 0,
@@ -90,7 +93,11 @@ impl SimDrives {
 
     /// Cut or restore a drive's power (fault injection).
     pub fn set_powered(&mut self, wheel: usize, on: bool) {
+        let boot_at = self.now_ns + self.p.boot_ns;
         if let Some(d) = self.drives.get_mut(wheel) {
+            if on && !d.powered {
+                d.boot_at_ns = boot_at;
+            }
             d.powered = on;
             if !on {
                 d.nmt = None;
@@ -121,7 +128,7 @@ impl SimDrives {
                 continue;
             }
             if d.nmt.is_none() {
-                if now_ns >= self.p.boot_ns {
+                if now_ns >= d.boot_at_ns {
                     self.drives[i].nmt = Some(NmtState::PreOperational);
                     self.drives[i].next_heartbeat_ns = now_ns + self.p.heartbeat_ns;
                     self.send(now_ns, &canopen::heartbeat(node, NmtState::BootUp));
@@ -242,6 +249,7 @@ impl SimDrives {
                 }
             }
             Event::Nmt { command, node } => {
+                let boot_at = now_ns + self.p.boot_ns;
                 for i in 0..WHEELS {
                     let d = &mut self.drives[i];
                     if !(node == 0 || node as usize == i + 1) || !d.powered || d.nmt.is_none() {
@@ -252,10 +260,15 @@ impl SimDrives {
                         NmtCommand::Stop => d.nmt = Some(NmtState::Stopped),
                         NmtCommand::EnterPreOperational => d.nmt = Some(NmtState::PreOperational),
                         NmtCommand::ResetNode | NmtCommand::ResetCommunication => {
-                            // Reboots: a new boot-up message after the boot time.
+                            // Reboots: a new boot-up message after the boot
+                            // time. Only a node reset loses the application
+                            // parameters (the mode of operation).
                             d.nmt = None;
-                            d.state = DriveState::SwitchOnDisabled;
-                            d.mode = 0;
+                            d.boot_at_ns = boot_at;
+                            if command == NmtCommand::ResetNode {
+                                d.state = DriveState::SwitchOnDisabled;
+                                d.mode = 0;
+                            }
                         }
                     }
                 }
@@ -336,6 +349,8 @@ fn transition(s: DriveState, previous_cw: u16, cw: u16) -> DriveState {
         NotReadyToSwitchOn => SwitchOnDisabled,
         SwitchOnDisabled if shutdown => ReadyToSwitchOn,
         ReadyToSwitchOn | SwitchedOn | OperationEnabled if disable_voltage => SwitchOnDisabled,
+        // Transitions 7 and 10: quick stop before operation disables.
+        ReadyToSwitchOn | SwitchedOn if quick_stop => SwitchOnDisabled,
         ReadyToSwitchOn if switch_on => SwitchedOn,
         ReadyToSwitchOn if enable => OperationEnabled,
         SwitchedOn if enable => OperationEnabled,
