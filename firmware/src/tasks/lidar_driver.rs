@@ -20,7 +20,11 @@ impl LidarDriver {
     pub fn new(assembler: FrameAssembler, capacity: usize) -> Self {
         let mut free = heapless::Vec::new();
         for _ in 0..3 {
-            let _ = free.push(Vec::with_capacity(capacity));
+            // Touch every page now, so the first revolutions do not pay for
+            // page faults inside the frame.
+            let mut v = vec![Point::default(); capacity];
+            v.clear();
+            let _ = free.push(v);
         }
         LidarDriver { assembler, free }
     }

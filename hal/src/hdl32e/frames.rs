@@ -72,10 +72,13 @@ impl FrameAssembler {
     /// per frame (allocated now, never grown).
     pub fn new(decoder: Decoder, cut_deg: f64, capacity: usize) -> Self {
         let cut = ((cut_deg.rem_euclid(360.0)) * 100.0).round() as u32 % 36000;
+        // Touched now, so no page faults while assembling.
+        let mut points = vec![Point::default(); capacity];
+        points.clear();
         FrameAssembler {
             decoder,
             cut: cut as u16,
-            points: Vec::with_capacity(capacity),
+            points,
             last_rel: None,
             last_ts: None,
             start_us: None,
