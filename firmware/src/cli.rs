@@ -43,6 +43,29 @@ pub enum Command {
     /// Decode a device capture or log and print what it holds.
     #[command(subcommand)]
     Decode(DecodeCommand),
+    /// Worlds of the simulation.
+    #[command(subcommand)]
+    World(WorldCommand),
+}
+
+#[derive(Subcommand, Debug)]
+pub enum WorldCommand {
+    /// Write a world's ground-truth mesh as binary PLY (with a per-face
+    /// `surface` property: 0 rock, 1 mud, 2 boulder, 3 concrete) and print its
+    /// size, reachable floor area and start pose.
+    Export(WorldExportArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct WorldExportArgs {
+    /// lava-tube, garage, flat, or a .ply/.obj/.stl file.
+    #[arg(value_name = "NAME|MESH")]
+    pub world: String,
+    #[arg(value_name = "OUT.ply")]
+    pub out: PathBuf,
+    /// Seed of the generated world.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
 }
 
 #[derive(Args, Debug)]
@@ -181,6 +204,7 @@ pub fn main() -> ExitCode {
         Command::Run(a) => modes::run(a, progress),
         Command::Pcap2mcap(a) => modes::pcap2mcap(a),
         Command::Decode(d) => modes::decode(d),
+        Command::World(WorldCommand::Export(a)) => modes::world_export(a),
     };
     match result {
         Ok(code) => code,

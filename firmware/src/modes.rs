@@ -16,7 +16,9 @@ use speleo_hal::Hardware;
 use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
 use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
 
-use crate::cli::{DecodeCommand, Outputs, Pcap2mcapArgs, ReplayArgs, RunArgs, SimArgs};
+use crate::cli::{
+    DecodeCommand, Outputs, Pcap2mcapArgs, ReplayArgs, RunArgs, SimArgs, WorldExportArgs,
+};
 use crate::config::Config;
 use crate::mission::{self, Length, MissionInputs, MissionResult};
 use crate::record::compare::Comparer;
@@ -416,5 +418,34 @@ pub fn decode(d: DecodeCommand) -> Result<ExitCode, Error> {
         DecodeCommand::Can(a) => decode_can::run(&a.file, &mut out)?,
     }
     std::io::Write::flush(&mut out)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
+    let w = speleo_hal::world::World::build(&a.world, a.seed)?;
+    let f = std::fs::File::create(&a.out)
+        .map_err(|e| format!("cannot create {}: {e}", a.out.display()))?;
+    let mut out = std::io::BufWriter::new(f);
+    w.mesh.write_ply(&mut out)?;
+    std::io::Write::flush(&mut out)?;
+    let (lo, hi) = w.mesh.bounds();
+    println!(
+        "{}: {} triangles, {} vertices, bounds ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) m, \
+         reachable floor {:.0} m2, start ({:.2}, {:.2}, {:.2}) heading {:.1} deg",
+        a.out.display(),
+        w.mesh.triangle_count(),
+        w.mesh.vertices.len(),
+        lo[0],
+        lo[1],
+        lo[2],
+        hi[0],
+        hi[1],
+        hi[2],
+        w.floor_area_m2,
+        w.start[0],
+        w.start[1],
+        w.start[2],
+        w.start[3].to_degrees()
+    );
     Ok(ExitCode::SUCCESS)
 }

@@ -17,6 +17,7 @@ pub mod pcap;
 pub mod real;
 pub mod replay;
 pub mod sim;
+pub mod world;
 pub mod xbus;
 pub mod xsens_config;
 

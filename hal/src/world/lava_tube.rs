@@ -1,0 +1,295 @@
+//! A generated lava tube, after the section of Cueva del Viento the paper
+//! explores: a meandering tube (3 to 6 m across, slopes up to 20 deg) with
+//! closed walls and ceiling, a rough flattened floor with boulders, an
+//! inclined muddy entrance section, a narrow squeeze, and a side branch.
+//!
+//! The tube runs along a centreline whose heading and slope are smooth
+//! seeded noise. Each station carries a ring of vertices: an ellipse whose
+//! lower part is cut flat into the floor, with radial and floor roughness.
+
+use super::mesh::{Mesh, Surface};
+use super::noise::{noise1, noise2, uniform};
+use super::shapes::add_rock;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct LavaTubeParams {
+    pub length_m: f64,
+    pub min_diameter_m: f64,
+    pub max_diameter_m: f64,
+    pub max_slope_deg: f64,
+    /// Boulders per 10 m of tube.
+    pub boulders_per_10m: f64,
+    /// Length of the inclined muddy entrance section and its slope.
+    pub entrance_length_m: f64,
+    pub entrance_slope_deg: f64,
+    /// Where the squeeze is (fraction of the length), its length and the
+    /// diameter at its narrowest.
+    pub squeeze_at: f64,
+    pub squeeze_length_m: f64,
+    pub squeeze_diameter_m: f64,
+    /// Where the side branch leaves (fraction), its length and angle (deg, left).
+    pub branch_at: f64,
+    pub branch_length_m: f64,
+    pub branch_angle_deg: f64,
+}
+
+impl Default for LavaTubeParams {
+    fn default() -> Self {
+        LavaTubeParams {
+            length_m: 240.0,
+            min_diameter_m: 3.0,
+            max_diameter_m: 6.0,
+            max_slope_deg: 20.0,
+            boulders_per_10m: 2.5,
+            entrance_length_m: 15.0,
+            entrance_slope_deg: 18.0,
+            squeeze_at: 0.62,
+            squeeze_length_m: 6.0,
+            squeeze_diameter_m: 1.6,
+            branch_at: 0.35,
+            branch_length_m: 30.0,
+            branch_angle_deg: 55.0,
+        }
+    }
+}
+
+/// Station spacing along the tube and vertices per ring.
+const STEP_M: f64 = 0.5;
+const RING: usize = 40;
+/// Where the floor cuts the ellipse (fraction of the vertical radius below
+/// the centre).
+const FLOOR_CUT: f64 = 0.55;
+
+struct Station {
+    c: [f64; 3],
+    heading: f64,
+    radius: f64,
+}
+
+struct Tube {
+    stations: Vec<Station>,
+}
+
+fn centreline(
+    seed: u64,
+    p: &LavaTubeParams,
+    start: [f64; 3],
+    heading0: f64,
+    length: f64,
+    with_features: bool,
+) -> Tube {
+    let n = (length / STEP_M).ceil() as usize + 1;
+    let mut stations = Vec::with_capacity(n);
+    let mut c = start;
+    let max_slope = p.max_slope_deg.to_radians();
+    for k in 0..n {
+        let s = k as f64 * STEP_M;
+        let heading =
+            heading0 + 0.45 * noise1(seed ^ 0xA1, s, 45.0) + 0.20 * noise1(seed ^ 0xA2, s, 17.0);
+        let mut slope =
+            (0.55 * noise1(seed ^ 0xB1, s, 35.0) + 0.25 * noise1(seed ^ 0xB2, s, 13.0)) * max_slope;
+        let mut radius = 0.5
+            * (p.min_diameter_m
+                + (p.max_diameter_m - p.min_diameter_m)
+                    * (0.5 + 0.5 * noise1(seed ^ 0xC1, s, 25.0)));
+        if with_features {
+            // The muddy entrance slopes down into the cave, then eases out.
+            let e = p.entrance_length_m;
+            if s < e {
+                slope = -p.entrance_slope_deg.to_radians();
+            } else if s < e + 5.0 {
+                let t = (s - e) / 5.0;
+                slope = -p.entrance_slope_deg.to_radians() * (1.0 - t) + slope * t;
+            }
+            let sq = p.squeeze_at * p.length_m;
+            let half = 0.5 * p.squeeze_length_m + 3.0;
+            let d = (s - sq).abs();
+            if d < half {
+                // Smoothly down to the squeeze diameter and back.
+                let w = 0.5 * (1.0 + libm::cos(core::f64::consts::PI * d / half));
+                radius = radius * (1.0 - w) + 0.5 * p.squeeze_diameter_m * w;
+            }
+        }
+        slope = slope.clamp(-max_slope, max_slope);
+        stations.push(Station { c, heading, radius });
+        let (sh, ch) = (libm::sin(heading), libm::cos(heading));
+        let (ss, cs) = (libm::sin(slope), libm::cos(slope));
+        c = [
+            c[0] + STEP_M * cs * ch,
+            c[1] + STEP_M * cs * sh,
+            c[2] + STEP_M * ss,
+        ];
+    }
+    Tube { stations }
+}
+
+/// Ring vertex `j` of a station: (position, is_floor).
+fn ring_point(seed: u64, st: &Station, s: f64, j: usize) -> ([f64; 3], bool) {
+    let a = 2.0 * core::f64::consts::PI * j as f64 / RING as f64;
+    let (sh, ch) = (libm::sin(st.heading), libm::cos(st.heading));
+    // Horizontal normal (left) and up, perpendicular to the heading.
+    let left = [-sh, ch, 0.0];
+    let up = [0.0, 0.0, 1.0];
+    let rough = 1.0 + 0.08 * noise2(seed ^ 0xD1, s, j as f64, 1.5, 3.0);
+    let rh = st.radius * rough;
+    let rv = 0.85 * st.radius * rough;
+    let mut v = libm::sin(a);
+    let floor = v < -FLOOR_CUT;
+    if floor {
+        v = -FLOOR_CUT;
+    }
+    let h = libm::cos(a);
+    let mut dz = rv * v;
+    if floor {
+        // Rough floor: a few centimetres.
+        dz += 0.04 * noise2(seed ^ 0xE1, s, h * st.radius, 0.7, 0.7);
+    }
+    let p = [
+        st.c[0] + rh * h * left[0] + dz * up[0],
+        st.c[1] + rh * h * left[1] + dz * up[1],
+        st.c[2] + dz,
+    ];
+    (p, floor)
+}
+
+/// Floor height under the centre of a station.
+fn floor_z(st: &Station) -> f64 {
+    st.c[2] - 0.85 * st.radius * FLOOR_CUT
+}
+
+/// Mesh one tube; `skip(k, j)` leaves out the wall quad between stations k
+/// and k+1 starting at ring vertex j (the branch opening). Returns the floor
+/// area.
+fn mesh_tube(
+    m: &mut Mesh,
+    seed: u64,
+    t: &Tube,
+    mud_until_m: f64,
+    cap_start: bool,
+    skip: &dyn Fn(usize, usize) -> bool,
+) -> f64 {
+    let base = m.vertices.len() as u32;
+    let mut is_floor = Vec::with_capacity(t.stations.len() * RING);
+    for (k, st) in t.stations.iter().enumerate() {
+        for j in 0..RING {
+            let (p, f) = ring_point(seed, st, k as f64 * STEP_M, j);
+            m.vertices.push(p.map(|x| x as f32));
+            is_floor.push(f);
+        }
+    }
+    let mut floor_area = 0.0;
+    let idx = |k: usize, j: usize| base + (k * RING + j % RING) as u32;
+    for k in 0..t.stations.len() - 1 {
+        for j in 0..RING {
+            let floor = is_floor[k * RING + j] && is_floor[k * RING + (j + 1) % RING];
+            if !floor && skip(k, j) {
+                continue;
+            }
+            let surface = if floor && (k as f64 * STEP_M) < mud_until_m {
+                Surface::Mud
+            } else {
+                Surface::Rock
+            };
+            // Normals point into the tube (the side rays come from).
+            let (a, b, c, d) = (idx(k, j), idx(k, j + 1), idx(k + 1, j + 1), idx(k + 1, j));
+            m.triangles.push([a, c, b]);
+            m.triangles.push([a, d, c]);
+            m.surfaces.push(surface);
+            m.surfaces.push(surface);
+            if floor {
+                let n = m.triangles.len();
+                floor_area += m.triangle_geometry(n - 1).0 + m.triangle_geometry(n - 2).0;
+            }
+        }
+    }
+    // Closing caps (fans around the station centre).
+    let last = t.stations.len() - 1;
+    let caps: &[usize] = if cap_start { &[0, last] } else { &[last] };
+    for &k in caps {
+        let st = &t.stations[k];
+        let centre = [st.c[0] as f32, st.c[1] as f32, (st.c[2]) as f32];
+        let ci = m.vertices.len() as u32;
+        m.vertices.push(centre);
+        for j in 0..RING {
+            let (a, b) = (idx(k, j), idx(k, j + 1));
+            m.triangles
+                .push(if k == 0 { [ci, a, b] } else { [ci, b, a] });
+            m.surfaces.push(Surface::Rock);
+        }
+    }
+    floor_area
+}
+
+pub struct LavaTube {
+    pub mesh: Mesh,
+    pub floor_area_m2: f64,
+    /// x, y, z, yaw of the rover's start: past the muddy entrance, facing in.
+    pub start: [f64; 4],
+}
+
+pub fn generate(seed: u64, p: &LavaTubeParams) -> LavaTube {
+    let main = centreline(seed, p, [0.0; 3], 0.0, p.length_m, true);
+    // The branch leaves to the left from the wall of the main tube.
+    let kb = ((p.branch_at * p.length_m) / STEP_M) as usize;
+    let sb = &main.stations[kb.min(main.stations.len() - 1)];
+    let hb = sb.heading + p.branch_angle_deg.to_radians();
+    let r0 = 0.8 * sb.radius;
+    let branch_start = [
+        sb.c[0] + r0 * libm::cos(hb),
+        sb.c[1] + r0 * libm::sin(hb),
+        sb.c[2],
+    ];
+    let branch = centreline(
+        seed ^ 0xB7A9C4,
+        p,
+        branch_start,
+        hb,
+        p.branch_length_m,
+        false,
+    );
+    let branch_r = branch.stations[0].radius;
+    let mut mesh = Mesh::default();
+    // Opening in the main tube's left wall where the branch joins.
+    let span = ((branch_r + 0.5) / STEP_M).ceil() as usize;
+    let opening = |k: usize, j: usize| {
+        let left_wall = (2..=RING / 4 + 2).contains(&j);
+        left_wall && k + span >= kb && k <= kb + span
+    };
+    let mut floor = mesh_tube(&mut mesh, seed, &main, p.entrance_length_m, true, &opening);
+    floor += mesh_tube(&mut mesh, seed ^ 0xB7A9C4, &branch, 0.0, false, &|_, _| {
+        false
+    });
+    // Boulders on the floor, away from the start, the squeeze and the junction.
+    let n = (p.length_m / 10.0 * p.boulders_per_10m) as i64;
+    let sq = p.squeeze_at * p.length_m;
+    for b in 0..n {
+        let s = p.entrance_length_m
+            + 10.0
+            + uniform(seed ^ 0xF1, b) * (p.length_m - p.entrance_length_m - 15.0);
+        if (s - sq).abs() < 0.5 * p.squeeze_length_m + 4.0
+            || (s - p.branch_at * p.length_m).abs() < 6.0
+        {
+            continue;
+        }
+        let k = ((s / STEP_M) as usize).min(main.stations.len() - 1);
+        let st = &main.stations[k];
+        let size = 0.1 + 0.5 * uniform(seed ^ 0xF2, b);
+        let lateral = (uniform(seed ^ 0xF3, b) - 0.5) * 1.2 * st.radius;
+        let (sh, ch) = (libm::sin(st.heading), libm::cos(st.heading));
+        add_rock(
+            &mut mesh,
+            st.c[0] - lateral * sh,
+            st.c[1] + lateral * ch,
+            floor_z(st),
+            size,
+            seed ^ (b as u64).wrapping_mul(0x9E37),
+        );
+    }
+    let k0 = ((p.entrance_length_m + 5.0) / STEP_M) as usize;
+    let s0 = &main.stations[k0.min(main.stations.len() - 1)];
+    LavaTube {
+        mesh,
+        floor_area_m2: floor,
+        start: [s0.c[0], s0.c[1], floor_z(s0), s0.heading],
+    }
+}
