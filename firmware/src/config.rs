@@ -87,6 +87,11 @@ pub struct SimConfig {
     pub seed: u64,
     pub world: String,
     pub duration_s: f64,
+    /// Simulate the HDL-32E (rays against the world). Off by default: full-rate
+    /// point clouds make large recordings.
+    pub lidar: bool,
+    /// Its rotation rate, 5 to 20 Hz.
+    pub lidar_rate_hz: f64,
 }
 
 impl Default for SimConfig {
@@ -95,6 +100,8 @@ impl Default for SimConfig {
             seed: 1,
             world: "flat".into(),
             duration_s: 60.0,
+            lidar: false,
+            lidar_rate_hz: 10.0,
         }
     }
 }
@@ -359,10 +366,15 @@ impl Config {
         }
         let s = &self.sim;
         range("sim.duration_s", s.duration_s, 0.0, 1.0e7, "0..=10000000")?;
+        range("sim.lidar_rate_hz", s.lidar_rate_hz, 5.0, 20.0, "5..=20")?;
         if s.world != "flat" {
             return Err(ConfigError::Invalid {
                 key: "sim.world".into(),
-                why: format!("unknown world \"{}\" (available: flat)", s.world),
+                why: format!(
+                    "\"{}\": the simulated rover drives on flat ground only until the physics \
+                     rover lands (see `speleo world export` for the lava tube and garage)",
+                    s.world
+                ),
             });
         }
         let r = &self.rover;

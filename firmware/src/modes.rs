@@ -217,9 +217,19 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
             max_wheel_speed: cfg.rover.max_wheel_speed,
             ..RoverParams::default()
         },
+        lidar: cfg.sim.lidar.then(|| speleo_hal::sim::lidar::LidarParams {
+            rate_hz: cfg.sim.lidar_rate_hz,
+            ..Default::default()
+        }),
+        lidar_mount: {
+            let [x, y, z] = cfg.lidar.mount_xyz;
+            let [r, p, yw] = cfg.lidar.mount_rpy_deg.map(f64::to_radians);
+            [x, y, z, r, p, yw]
+        },
         ..SimParams::default()
     };
-    let mut hw = SimHardware::new(&params);
+    let world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
+    let mut hw = SimHardware::with_world(&params, &world)?;
     let truth = hw.truth_probe();
     let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
     let mut meta = run_metadata(&cfg, "sim", epoch_ns);

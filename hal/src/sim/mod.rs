@@ -1,5 +1,6 @@
 //! Simulated hardware: a skid-steer rover on flat ground with twins of its
-//! IMU and motor drives that speak the real wire formats.
+//! IMU, motor drives and (optionally) HDL-32E that speak the real wire
+//! formats.
 //!
 //! The rover obeys the wheel velocity commands it receives as CiA 402 PDOs;
 //! its IMU emits Xbus MTData2 frames at 100 Hz and its drives answer every
@@ -10,6 +11,7 @@
 
 pub mod drives;
 pub mod imu;
+pub mod lidar;
 pub mod noise;
 pub mod rover;
 
@@ -29,6 +31,10 @@ pub struct SimParams {
     pub rover: RoverParams,
     pub imu: imu::ImuParams,
     pub drives: drives::DriveParams,
+    /// The HDL-32E twin (off: no LiDAR data).
+    pub lidar: Option<lidar::LidarParams>,
+    /// Sensor on base_link: x, y, z (m) and roll, pitch, yaw (rad).
+    pub lidar_mount: [f64; 6],
 }
 
 impl Default for SimParams {
@@ -38,6 +44,8 @@ impl Default for SimParams {
             rover: RoverParams::default(),
             imu: imu::ImuParams::default(),
             drives: drives::DriveParams::default(),
+            lidar: None,
+            lidar_mount: [0.0, 0.0, 0.5, 0.0, 0.0, 0.0],
         }
     }
 }
@@ -53,7 +61,14 @@ pub struct SimHardware {
     rover: rover::Rover,
     imu: imu::SimImu,
     drives: drives::SimDrives,
-    lidar: NoLidar,
+    lidar: LidarTwin,
+    mount: [f64; 6],
+}
+
+/// The LiDAR twin, or none.
+enum LidarTwin {
+    Off,
+    On(Box<lidar::SimLidar>),
 }
 
 impl SimHardware {
@@ -65,7 +80,36 @@ impl SimHardware {
             rover,
             imu: imu::SimImu::new(p.imu.clone(), p.seed),
             drives: drives::SimDrives::new(p.drives.clone()),
-            lidar: NoLidar,
+            lidar: LidarTwin::Off,
+            mount: p.lidar_mount,
+        }
+    }
+
+    /// Simulated hardware with the LiDAR twin casting rays against `world`
+    /// (when `p.lidar` is set).
+    pub fn with_world(p: &SimParams, world: &crate::world::World) -> Result<Self, String> {
+        let mut hw = Self::new(p);
+        if let Some(lp) = &p.lidar {
+            let w = std::sync::Arc::new(lidar::LidarWorld::new(&world.mesh)?);
+            hw.lidar = LidarTwin::On(Box::new(lidar::SimLidar::new(
+                lp.clone(),
+                crate::hdl32e::Calibration::nominal(),
+                w,
+                p.seed,
+            )));
+        }
+        Ok(hw)
+    }
+
+    /// Sensor pose for a rover pose on flat ground.
+    fn sensor_pose(&self, g: &GroundTruth) -> lidar::SensorPose {
+        let [mx, my, mz, roll, pitch, yaw] = self.mount;
+        let (s, c) = (libm::sin(g.yaw), libm::cos(g.yaw));
+        lidar::SensorPose {
+            p: [g.x + c * mx - s * my, g.y + s * mx + c * my, g.z + mz],
+            yaw: g.yaw + yaw,
+            pitch,
+            roll,
         }
     }
 
@@ -87,7 +131,11 @@ impl SimHardware {
 
     /// Counters of frames the simulated devices could not deliver.
     pub fn dropped(&self) -> u64 {
-        self.imu.dropped() + self.drives.dropped()
+        let lidar = match &self.lidar {
+            LidarTwin::On(l) => l.dropped(),
+            LidarTwin::Off => 0,
+        };
+        self.imu.dropped() + self.drives.dropped() + lidar
     }
 }
 
@@ -96,7 +144,15 @@ impl Hardware for SimHardware {
         while self.t_ns + STEP_NS <= now_ns {
             self.drives.tick(self.t_ns);
             let targets = self.drives.wheel_targets(self.t_ns);
+            let before = self.rover.truth(self.t_ns);
             self.rover.step(STEP_NS, &targets);
+            if let LidarTwin::On(_) = self.lidar {
+                let after = self.rover.truth(self.t_ns + STEP_NS);
+                let (p0, p1) = (self.sensor_pose(&before), self.sensor_pose(&after));
+                if let LidarTwin::On(l) = &mut self.lidar {
+                    l.advance(self.t_ns, self.t_ns + STEP_NS, &p0, &p1);
+                }
+            }
             self.t_ns += STEP_NS;
             self.drives.observe(&self.rover);
             self.imu.maybe_sample(self.t_ns, &self.rover);
@@ -114,11 +170,11 @@ impl Hardware for SimHardware {
     }
 }
 
-/// Flat ground carries no LiDAR twin: it yields no packets.
-struct NoLidar;
-
-impl LidarSource for NoLidar {
-    fn poll(&mut self, _now_ns: u64, _sink: &mut dyn InputSink) -> Result<(), HalError> {
+impl LidarSource for LidarTwin {
+    fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
+        if let LidarTwin::On(l) = self {
+            deliver(l.outbox(), Device::Lidar, now_ns, sink);
+        }
         Ok(())
     }
 }
