@@ -196,15 +196,7 @@ fn help_explains_every_option() {
 }
 
 fn shared(rel: &str) -> Option<std::path::PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data")
-        .join(rel);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} not found (shared data absent)", p.display());
-        None
-    }
+    speleo_hal::shared_data::path(rel)
 }
 
 #[test]

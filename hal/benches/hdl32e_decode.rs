@@ -2,18 +2,14 @@
 //! points per second on one thread: packets parsed and decoded into a
 //! preallocated point buffer, as the on-board driver does.
 
-use std::path::Path;
-
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use speleo_hal::hdl32e::{Calibration, DataPacket, Decoder, Interpolation, Point, DATA_PORT};
 
 fn bench(c: &mut Criterion) {
-    let pcap = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/velodyne/monterey-first-100-packets.pcap");
-    if !pcap.exists() {
-        eprintln!("skipped: {} not found (shared data absent)", pcap.display());
+    let Some(pcap) = speleo_hal::shared_data::path("velodyne/monterey-first-100-packets.pcap")
+    else {
         return;
-    }
+    };
     let (dgrams, _) = speleo_hal::pcap::read_udp(&pcap).expect("capture");
     let packets: Vec<Vec<u8>> = dgrams
         .into_iter()

@@ -16,6 +16,7 @@ pub mod outbox;
 pub mod pcap;
 pub mod real;
 pub mod replay;
+pub mod shared_data;
 pub mod sim;
 pub mod world;
 pub mod xbus;

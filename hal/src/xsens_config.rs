@@ -234,12 +234,10 @@ mod tests {
 
     #[test]
     fn the_recorded_output_configuration_parses() {
-        let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/data/xsens/1/outputconfig.bin");
-        let Ok(bytes) = std::fs::read(&p) else {
-            eprintln!("skipped: {} not found (shared data absent)", p.display());
+        let Some(p) = crate::shared_data::path("xsens/1/outputconfig.bin") else {
             return;
         };
+        let bytes = std::fs::read(&p).expect("readable");
         let c = OutputConfig::parse(&bytes).expect("parses");
         assert_eq!(c.entries.len(), 13);
         assert_eq!(c.entries[0], (0x1020, 0xFFFF));

@@ -3,8 +3,6 @@
 //! the real master sent, and the drive reaches operation enabled. Skipped
 //! when the data is absent.
 
-use std::path::Path;
-
 use speleo_hal::can::CanFrame;
 use speleo_hal::canopen::sdo::Sdo;
 use speleo_hal::canopen::supervisor::{DrivesState, InputCounters, Supervisor, SupervisorParams};
@@ -13,12 +11,8 @@ use speleo_hal::cia402::{self, DriveState, Pdo};
 
 /// `0x182 | 40 07 | meaning` lines of the trace.
 fn trace() -> Option<Vec<CanFrame>> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/can/machinekit_issue589_maxon_epos_ds402_enable.txt");
-    let Ok(text) = std::fs::read_to_string(&p) else {
-        eprintln!("skipped: {} not found (shared data absent)", p.display());
-        return None;
-    };
+    let p = speleo_hal::shared_data::path("can/machinekit_issue589_maxon_epos_ds402_enable.txt")?;
+    let text = std::fs::read_to_string(p).ok()?;
     let mut frames = Vec::new();
     for line in text.lines().filter(|l| l.starts_with("0x")) {
         let mut cols = line.split('|');

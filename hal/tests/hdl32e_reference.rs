@@ -12,15 +12,7 @@ use speleo_hal::hdl32e::{
 use speleo_hal::pcap::read_udp;
 
 fn data(name: &str) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/velodyne")
-        .join(name);
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} not found (shared data absent)", p.display());
-        None
-    }
+    speleo_hal::shared_data::path(&format!("velodyne/{name}"))
 }
 
 fn data_packets(pcap: &Path) -> Vec<(Vec<u8>, u64)> {

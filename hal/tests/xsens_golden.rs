@@ -4,21 +4,13 @@
 //! (all four precisions convert to f64 without rounding). Skipped when the
 //! data is absent.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use speleo_hal::mtdata2::{items, GnssPvt, Item, UtcTime};
 use speleo_hal::xbus::{XbusDecoder, MID_MTDATA2};
 
 fn data(set: u32) -> Option<PathBuf> {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/xsens")
-        .join(set.to_string());
-    if p.exists() {
-        Some(p)
-    } else {
-        eprintln!("skipped: {} not found (shared data absent)", p.display());
-        None
-    }
+    speleo_hal::shared_data::path(&format!("xsens/{set}"))
 }
 
 /// One message of a golden file: (header, value lines).

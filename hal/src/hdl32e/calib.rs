@@ -266,15 +266,7 @@ mod tests {
     use super::*;
 
     fn data(name: &str) -> Option<std::path::PathBuf> {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/data/velodyne")
-            .join(name);
-        if p.exists() {
-            Some(p)
-        } else {
-            eprintln!("skipped: {} not found (shared data absent)", p.display());
-            None
-        }
+        crate::shared_data::path(&format!("velodyne/{name}"))
     }
 
     #[test]
