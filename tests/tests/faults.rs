@@ -48,8 +48,29 @@ impl Hardware for Faulty {
     }
 }
 
+/// Run 1000 frames (10 s) of the default mission schedule for `cfg`.
+fn run_mission(cfg: &Config, hw: &mut dyn Hardware, truth: &TruthProbe) -> mission::MissionResult {
+    let tap = RefCell::new(RecorderTap::new(0, None, 4096));
+    let stop = AtomicBool::new(false);
+    mission::run(
+        MissionInputs {
+            cfg,
+            schedule: schedule_table::build(cfg).expect("schedule"),
+            length: Length::Frames(1000),
+            enforcement: Enforcement::CountOnly,
+            truth: Some(truth.clone()),
+            stop: &stop,
+            progress: None,
+        },
+        hw,
+        &tap,
+        VirtualClock::new(cfg.executive.minor_frame_us),
+    )
+    .expect("mission runs")
+}
+
+/// 5 s healthy, then 5 s with `fault` in drive 2.
 fn fly(fault: Fault) -> (mission::MissionResult, TruthProbe) {
-    let cfg = Config::default();
     let sim = SimHardware::new(&SimParams::default());
     let truth = sim.truth_probe();
     let mut hw = Faulty {
@@ -58,25 +79,7 @@ fn fly(fault: Fault) -> (mission::MissionResult, TruthProbe) {
         fault,
         done: false,
     };
-    let tap = RefCell::new(RecorderTap::new(0, None, 4096));
-    let stop = AtomicBool::new(false);
-    // 5 s healthy, then 5 s with the fault.
-    let r = mission::run(
-        MissionInputs {
-            cfg: &cfg,
-            schedule: schedule_table::build(&cfg).expect("schedule"),
-            length: Length::Frames(1000),
-            enforcement: Enforcement::CountOnly,
-            truth: Some(truth.clone()),
-            stop: &stop,
-            progress: Some(&|_, _| {}),
-        },
-        &mut hw,
-        &tap,
-        VirtualClock::new(cfg.executive.minor_frame_us),
-    )
-    .expect("mission runs");
-    (r, truth)
+    (run_mission(&Config::default(), &mut hw, &truth), truth)
 }
 
 /// Slower than this is standing still (the cruise speed is 0.4 m/s).
@@ -110,26 +113,9 @@ fn commands_that_go_stale_hold_the_wheels() {
     // The path follower runs only every 300 ms: longer than the 100 ms
     // freshness limit of wheel commands, so the wheels are held between runs.
     let cfg = Config::from_toml("[tasks.control]\ndivisor = 30\noffset = 1\n").expect("config");
-    let sim = SimHardware::new(&SimParams::default());
+    let mut sim = SimHardware::new(&SimParams::default());
     let truth = sim.truth_probe();
-    let mut hw = sim;
-    let tap = RefCell::new(RecorderTap::new(0, None, 4096));
-    let stop = AtomicBool::new(false);
-    let r = mission::run(
-        MissionInputs {
-            cfg: &cfg,
-            schedule: schedule_table::build(&cfg).expect("schedule"),
-            length: Length::Frames(1000),
-            enforcement: Enforcement::CountOnly,
-            truth: Some(truth.clone()),
-            stop: &stop,
-            progress: None,
-        },
-        &mut hw,
-        &tap,
-        VirtualClock::new(cfg.executive.minor_frame_us),
-    )
-    .expect("mission runs");
+    let r = run_mission(&cfg, &mut sim, &truth);
     // Stale commands are not a failure: no safe mode, but little progress
     // (each command drives for 100 ms out of every 300 ms at most).
     assert_eq!(r.mode, Mode::Nominal);

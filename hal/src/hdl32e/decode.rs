@@ -170,18 +170,10 @@ impl Decoder {
         for (b, blk) in p.blocks.iter().enumerate() {
             let t_block = b as f64 * BLOCK_PERIOD_NS * 1e-9;
             for l in 0..LASERS {
-                let raw = blk.distance[l];
-                if raw == 0 {
-                    if self.keep_empty {
-                        f(self.empty_point(blk.azimuth, blk.intensity[l], b, l));
-                    }
+                let Some(dist) = self.distance(blk, b, l, f) else {
                     continue;
-                }
+                };
                 let k = &self.lasers[l];
-                let dist = raw as f64 * self.lsb + k.dist_corr;
-                if dist < self.min_distance_m {
-                    continue;
-                }
                 let az = (blk.azimuth as u32 + Self::veloview_offset(step, b, l)) % 36000;
                 let (s_az, c_az) = tables[az as usize];
                 let (sphi, cphi) = if k.sin_r == 0.0 {
@@ -211,6 +203,28 @@ impl Decoder {
                 });
             }
         }
+    }
+
+    /// Corrected distance of return `l` of block `b`, or `None` when it is
+    /// no return (emitted as an empty point if asked) or closer than the
+    /// minimum range.
+    #[inline]
+    fn distance(
+        &self,
+        blk: &super::packet::Block,
+        b: usize,
+        l: usize,
+        f: &mut impl FnMut(Point),
+    ) -> Option<f64> {
+        let raw = blk.distance[l];
+        if raw == 0 {
+            if self.keep_empty {
+                f(self.empty_point(blk.azimuth, blk.intensity[l], b, l));
+            }
+            return None;
+        }
+        let dist = raw as f64 * self.lsb + self.lasers[l].dist_corr;
+        (dist >= self.min_distance_m).then_some(dist)
     }
 
     fn empty_point(&self, azimuth: u16, intensity: u8, b: usize, l: usize) -> Point {
@@ -248,8 +262,9 @@ impl Decoder {
     /// laser by laser (firing order).
     #[inline]
     pub fn decode_with(&self, p: &DataPacket, mut f: impl FnMut(Point)) {
+        let f = &mut f;
         if let Some(t) = &self.tables {
-            return self.decode_veloview(p, t, &mut f);
+            return self.decode_veloview(p, t, f);
         }
         let pairs = self.mode == Interpolation::FixedPairs;
         let steps = Self::block_steps(p);
@@ -263,18 +278,10 @@ impl Decoder {
             let t_block = (b / per_firing) as f64 * BLOCK_PERIOD_NS * 1e-9;
             let return_index = (b % per_firing) as u8;
             for l in 0..LASERS {
-                let raw = blk.distance[l];
-                if raw == 0 {
-                    if self.keep_empty {
-                        f(self.empty_point(blk.azimuth, blk.intensity[l], b, l));
-                    }
+                let Some(dist) = self.distance(blk, b, l, f) else {
                     continue;
-                }
+                };
                 let k = &self.lasers[l];
-                let dist = raw as f64 * self.lsb + k.dist_corr;
-                if dist < self.min_distance_m {
-                    continue;
-                }
                 // sin/cos of az + d by a short Taylor series in d.
                 let d_hund = if pairs { (l / 2) as f64 } else { step * k.frac };
                 let d = d_hund * HUNDREDTH_RAD;
