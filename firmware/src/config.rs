@@ -85,23 +85,36 @@ pub struct TaskOverride {
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     pub seed: u64,
+    /// `lava-tube`, `garage`, `flat`, or a .ply/.obj/.stl mesh file.
     pub world: String,
     pub duration_s: f64,
-    /// Simulate the HDL-32E (rays against the world). Off by default: full-rate
-    /// point clouds make large recordings.
+    /// Simulate the HDL-32E (rays against the world).
     pub lidar: bool,
     /// Its rotation rate, 5 to 20 Hz.
     pub lidar_rate_hz: f64,
+    /// `physics` (rapier3d) or `kinematic` (flat-ground skid-steer, fast).
+    pub rover_model: String,
+    /// Drive the world's route (when it has one) instead of `control.path`.
+    pub follow_route: bool,
+    /// IMU frame against base_link, roll, pitch, yaw in degrees (what the
+    /// SLAM bias state estimates).
+    pub imu_misalignment_deg: [f64; 3],
+    /// The physics rover's build.
+    pub rover: speleo_hal::sim::PhysicsParams,
 }
 
 impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
             seed: 1,
-            world: "flat".into(),
+            world: "lava-tube".into(),
             duration_s: 60.0,
-            lidar: false,
+            lidar: true,
             lidar_rate_hz: 10.0,
+            rover_model: "physics".into(),
+            follow_route: true,
+            imu_misalignment_deg: [0.0; 3],
+            rover: speleo_hal::sim::PhysicsParams::default(),
         }
     }
 }
@@ -175,7 +188,8 @@ pub struct LidarConfig {
     pub min_range_m: f64,
     /// Frame buffer size; points beyond it are dropped and counted.
     pub max_points_per_frame: u32,
-    /// Sensor position on base_link (x, y, z, m) and orientation (roll, pitch, yaw, deg).
+    /// Sensor position on base_link (the chassis frame at axle height; x, y,
+    /// z, m) and orientation (roll, pitch, yaw, deg).
     pub mount_xyz: [f64; 3],
     pub mount_rpy_deg: [f64; 3],
 }
@@ -189,7 +203,7 @@ impl Default for LidarConfig {
             min_range_m: 0.0,
             // 69,504 returns per revolution at 10 Hz; twice that at 5 Hz.
             max_points_per_frame: 140_000,
-            mount_xyz: [0.0, 0.0, 0.5],
+            mount_xyz: [0.0, 0.0, 0.35],
             mount_rpy_deg: [0.0, 0.0, 0.0],
         }
     }
@@ -230,6 +244,9 @@ pub struct RecordConfig {
     pub pool_messages: u32,
     /// Scheduler telemetry period, frames.
     pub telemetry_every_frames: u32,
+    /// Record one decoded LiDAR revolution (`/lidar/points`) in this many;
+    /// the raw packets of every revolution are always recorded.
+    pub cloud_every: u32,
 }
 
 impl Default for RecordConfig {
@@ -239,6 +256,7 @@ impl Default for RecordConfig {
             compression: "zstd".into(),
             pool_messages: 2048,
             telemetry_every_frames: 100,
+            cloud_every: 10,
         }
     }
 }
@@ -367,16 +385,31 @@ impl Config {
         let s = &self.sim;
         range("sim.duration_s", s.duration_s, 0.0, 1.0e7, "0..=10000000")?;
         range("sim.lidar_rate_hz", s.lidar_rate_hz, 5.0, 20.0, "5..=20")?;
-        if s.world != "flat" {
+        if s.world.is_empty() {
             return Err(ConfigError::Invalid {
                 key: "sim.world".into(),
-                why: format!(
-                    "\"{}\": the simulated rover drives on flat ground only until the physics \
-                     rover lands (see `speleo world export` for the lava tube and garage)",
-                    s.world
-                ),
+                why: "name a world (lava-tube, garage, flat) or a .ply/.obj/.stl file".into(),
             });
         }
+        if !["physics", "kinematic"].contains(&s.rover_model.as_str()) {
+            return Err(ConfigError::Invalid {
+                key: "sim.rover_model".into(),
+                why: format!("\"{}\": use physics or kinematic", s.rover_model),
+            });
+        }
+        for (k, a) in ["roll", "pitch", "yaw"].iter().zip(s.imu_misalignment_deg) {
+            range(
+                &format!("sim.imu_misalignment_deg ({k})"),
+                a,
+                -30.0,
+                30.0,
+                "-30..=30",
+            )?;
+        }
+        s.rover.validate().map_err(|why| ConfigError::Invalid {
+            key: "sim.rover".into(),
+            why,
+        })?;
         let r = &self.rover;
         range(
             "rover.wheel_radius_m",
@@ -517,6 +550,13 @@ impl Config {
             1,
             1 << 20,
             "1..=1048576",
+        )?;
+        range(
+            "record.cloud_every",
+            rec.cloud_every,
+            1,
+            1_000_000,
+            "1..=1000000",
         )?;
         if rec.compression != "zstd" && rec.compression != "none" {
             return Err(ConfigError::Invalid {

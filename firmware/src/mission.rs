@@ -66,6 +66,8 @@ pub struct MissionResult {
     pub sim_time_s: f64,
     pub wall_time_s: f64,
     pub output_hash: u64,
+    /// Hash of the raw device byte streams the run received.
+    pub input_hash: u64,
     pub minor_frame_us: u32,
     pub slips: u64,
     pub allocations_after_init: u64,
@@ -87,9 +89,9 @@ pub enum MissionError {
 }
 
 /// Bytes of one recorded point-cloud message for `max_points` points
-/// (20-byte points in base64, plus the JSON around them).
+/// (20-byte points, plus the CDR header and field table).
 pub fn cloud_message_capacity(max_points: u32) -> usize {
-    (max_points as usize * 20).div_ceil(3) * 4 + 4096
+    max_points as usize * 20 + 1024
 }
 
 fn build_lidar_driver(cfg: &Config) -> Result<lidar_driver::LidarDriver, MissionError> {
@@ -149,7 +151,8 @@ pub fn run<C: FrameClock>(
     let cfg = m.cfg;
     let r = &cfg.rover;
     let mut bus = Bus::new();
-    let mut t_io = io::IoTask::new(hw);
+    let hw = RefCell::new(hw);
+    let mut t_io = io::IoTask::new(&hw);
     let mut t_lidar = build_lidar_driver(cfg)?;
     // 100 Hz outputs; 100 ms for each acknowledgement, 5 tries.
     let mut t_imu = imu_driver::ImuDriver::new(100, 100_000_000, 5);
@@ -189,7 +192,8 @@ pub fn run<C: FrameClock>(
         cfg.control.looped,
         cfg.lidar.mount_xyz,
         cfg.lidar.mount_rpy_deg,
-    );
+    )
+    .with_cloud_every(cfg.record.cloud_every);
 
     // Same order as schedule_table::TASKS.
     let mut tasks: heapless::Vec<&mut dyn Task<Bus>, { speleo_scheduler::MAX_TASKS }> =
@@ -212,6 +216,8 @@ pub fn run<C: FrameClock>(
         Length::UntilStopped => None,
     };
     let telemetry_every = cfg.record.telemetry_every_frames as u64;
+    // Odometry starts at the rover's first pose, heading as it heads.
+    let mut odom_origin: Option<([f64; 3], [f64; 4])> = None;
     warm_up_blocking();
     let started = Instant::now();
     accounting::reset();
@@ -220,13 +226,25 @@ pub fn run<C: FrameClock>(
         if total.is_some_and(|n| exec.frames_run() >= n) || m.stop.load(Ordering::Relaxed) {
             break;
         }
+        // The outside world moves on to the next frame's start before the
+        // frame runs, on its own allocation account.
+        accounting::set_slot(accounting::WORLD);
+        let next = exec.clock().frame_time_ns(exec.next_frame());
+        hw.borrow_mut().advance_to(next);
+        accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
         let f = exec.run_frame(&mut bus);
         if bus.safe_mode_request && exec.mode() == Mode::Nominal {
             exec.enter_safe_mode();
         }
         bus.mode = exec.mode();
         if let Some(truth) = &m.truth {
-            record_truth(&mut tap.borrow_mut(), f.frame, f.time_ns, truth);
+            record_truth(
+                &mut tap.borrow_mut(),
+                f.frame,
+                f.time_ns,
+                truth,
+                &mut odom_origin,
+            );
         }
         if (f.frame + 1) % telemetry_every == 0 {
             record_telemetry(&mut tap.borrow_mut(), &exec, f.frame, f.time_ns);
@@ -287,6 +305,7 @@ pub fn run<C: FrameClock>(
         sim_time_s: frames as f64 * minor_frame_us as f64 * 1e-6,
         wall_time_s: wall,
         output_hash: t.output_hash(),
+        input_hash: t.input_hash(),
         minor_frame_us,
         slips: exec.slips(),
         allocations_after_init,
@@ -300,29 +319,38 @@ pub fn run<C: FrameClock>(
     })
 }
 
-fn record_truth(tap: &mut RecorderTap, frame: u64, now: u64, truth: &TruthProbe) {
+fn record_truth(
+    tap: &mut RecorderTap,
+    frame: u64,
+    now: u64,
+    truth: &TruthProbe,
+    odom_origin: &mut Option<([f64; 3], [f64; 4])>,
+) {
     let g = truth.get();
+    let (at, rotation) = *odom_origin.get_or_insert_with(|| {
+        // The odometry frame: level, at the first true pose, heading as the
+        // rover heads. This ties the two trees together in a viewer.
+        let half = 0.5 * g.yaw();
+        (g.position, [half.cos(), 0.0, 0.0, half.sin()])
+    });
     if frame.is_multiple_of(crate::tasks::recorder::PLAN_EVERY_FRAMES) {
-        // Odometry starts where the simulated rover starts: at the world
-        // origin, heading zero. This ties the two trees together in a viewer.
         let tf = FrameTransform {
             timestamp: tap.time(now),
             parent_frame_id: "world",
             child_frame_id: "odom",
-            translation: [0.0; 3].into(),
-            rotation: Quaternion::wxyz([1.0, 0.0, 0.0, 0.0]),
+            translation: at.into(),
+            rotation: Quaternion::wxyz(rotation),
         };
         tap.emit(Topic::SimTf, frame, now, now, |w| {
             serde_json::to_writer(w, &tf)
         });
     }
-    let half = 0.5 * g.yaw;
     let msg = PoseInFrame {
         timestamp: tap.time(g.time_ns),
         frame_id: "world",
         pose: Pose {
-            position: [g.x, g.y, g.z].into(),
-            orientation: Quaternion::wxyz([half.cos(), 0.0, 0.0, half.sin()]),
+            position: g.position.into(),
+            orientation: Quaternion::wxyz(g.orientation),
         },
     };
     tap.emit(Topic::GroundTruth, frame, now, g.time_ns, |w| {

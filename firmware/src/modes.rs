@@ -207,28 +207,14 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         cfg.sim.world = w.clone();
     }
     cfg.validate()?;
-    schedule_table::build(&cfg)?;
-    let params = SimParams {
-        seed: cfg.sim.seed,
-        rover: RoverParams {
-            wheel_radius_m: cfg.rover.wheel_radius_m,
-            track_width_m: cfg.rover.track_width_m,
-            skid_factor: cfg.rover.skid_factor,
-            max_wheel_speed: cfg.rover.max_wheel_speed,
-            ..RoverParams::default()
-        },
-        lidar: cfg.sim.lidar.then(|| speleo_hal::sim::lidar::LidarParams {
-            rate_hz: cfg.sim.lidar_rate_hz,
-            ..Default::default()
-        }),
-        lidar_mount: {
-            let [x, y, z] = cfg.lidar.mount_xyz;
-            let [r, p, yw] = cfg.lidar.mount_rpy_deg.map(f64::to_radians);
-            [x, y, z, r, p, yw]
-        },
-        ..SimParams::default()
-    };
     let world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
+    if cfg.sim.follow_route && world.route.len() >= 2 {
+        cfg.control.path = route_in_odometry_frame(&world);
+        cfg.control.looped = false;
+        cfg.validate()?;
+    }
+    schedule_table::build(&cfg)?;
+    let params = sim_params(&cfg);
     let mut hw = SimHardware::with_world(&params, &world)?;
     let truth = hw.truth_probe();
     let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
@@ -249,6 +235,51 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
     print_summary(&result);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The simulated hardware as the configuration describes it.
+pub fn sim_params(cfg: &Config) -> SimParams {
+    let [mr, mp, my] = cfg.sim.imu_misalignment_deg.map(f64::to_radians);
+    SimParams {
+        seed: cfg.sim.seed,
+        rover: RoverParams {
+            wheel_radius_m: cfg.rover.wheel_radius_m,
+            track_width_m: cfg.rover.track_width_m,
+            skid_factor: cfg.rover.skid_factor,
+            max_wheel_speed: cfg.rover.max_wheel_speed,
+            ..RoverParams::default()
+        },
+        physics: (cfg.sim.rover_model == "physics").then(|| cfg.sim.rover.clone()),
+        imu: speleo_hal::sim::imu::ImuParams {
+            misalignment_rpy: [mr, mp, my],
+            ..Default::default()
+        },
+        lidar: cfg.sim.lidar.then(|| speleo_hal::sim::lidar::LidarParams {
+            rate_hz: cfg.sim.lidar_rate_hz,
+            ..Default::default()
+        }),
+        lidar_mount: {
+            let [x, y, z] = cfg.lidar.mount_xyz;
+            let [r, p, yw] = cfg.lidar.mount_rpy_deg.map(f64::to_radians);
+            [x, y, z, r, p, yw]
+        },
+        ..SimParams::default()
+    }
+}
+
+/// The world's route as waypoints of the scripted path: odometry starts at
+/// the world's start pose, so the route is expressed relative to it
+/// (at most the path capacity; the rest of a long route is dropped).
+fn route_in_odometry_frame(w: &speleo_hal::world::World) -> Vec<[f64; 2]> {
+    let [x0, y0, _, yaw] = w.start;
+    let (s, c) = (yaw.sin(), yaw.cos());
+    std::iter::once([0.0, 0.0])
+        .chain(w.route.iter().map(|p| {
+            let (dx, dy) = (p[0] - x0, p[1] - y0);
+            [c * dx + s * dy, -s * dx + c * dy]
+        }))
+        .take(speleo_control::MAX_WAYPOINTS)
+        .collect()
 }
 
 pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
@@ -380,7 +411,13 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
 pub fn pcap2mcap(a: Pcap2mcapArgs) -> Result<ExitCode, Error> {
     let cfg = match &a.config {
         Some(p) => Config::load(p)?,
-        None => Config::default(),
+        None => {
+            // A real capture is looked at revolution by revolution: its
+            // replays record every decoded cloud unless configured otherwise.
+            let mut c = Config::default();
+            c.record.cloud_every = 1;
+            c
+        }
     };
     let s = crate::tools::pcap2mcap::run(&a.capture, &a.out, &cfg)?;
     println!(

@@ -13,6 +13,7 @@ pub struct Report<'a> {
     pub wall_time_s: f64,
     /// xxh3-64 over every recorded output message, in order, as 16 hex digits.
     pub output_hash: String,
+    pub input_hash: String,
     pub scheduler: SchedulerReport<'a>,
     pub recorder: RecorderReport,
     pub counters: serde_json::Value,
@@ -61,6 +62,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         sim_time_s: r.sim_time_s,
         wall_time_s: r.wall_time_s,
         output_hash: format!("{:016x}", r.output_hash),
+        input_hash: format!("{:016x}", r.input_hash),
         scheduler: SchedulerReport {
             minor_frame_us: r.minor_frame_us,
             slips: r.slips,

@@ -17,29 +17,56 @@ fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
 
-fn hash_of(report: &Path) -> String {
+/// (output hash, input hash) of a report.
+fn hashes_of(report: &Path) -> (String, String) {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(report).expect("report")).expect("json");
-    v["output_hash"].as_str().expect("hash").to_string()
+    let h = |k: &str| v[k].as_str().expect("hash").to_string();
+    (h("output_hash"), h("input_hash"))
+}
+
+/// Run a 2 s simulation in its own process and return its hashes.
+fn sim_hashes(dir: &Path, world: &str, seed: &str) -> (String, String) {
+    let r = dir.join("r.json");
+    let out = speleo(&[
+        "sim",
+        "--world",
+        world,
+        "--duration",
+        "2",
+        "--seed",
+        seed,
+        "--report",
+        r.to_str().expect("utf8"),
+    ]);
+    assert!(out.status.success(), "{world}: {}", text(&out.stderr));
+    hashes_of(&r)
 }
 
 #[test]
-fn two_processes_give_the_same_output_hash() {
+fn every_world_gives_the_same_byte_streams_in_two_processes() {
     let d = tempfile::tempdir().expect("tmp");
-    let (a, b) = (d.path().join("a.json"), d.path().join("b.json"));
-    for r in [&a, &b] {
-        let out = speleo(&[
-            "sim",
-            "--duration",
-            "5",
-            "--seed",
-            "4",
-            "--report",
-            r.to_str().expect("utf8"),
-        ]);
-        assert!(out.status.success(), "{}", text(&out.stderr));
+    // A mesh-file world: the lava tube of seed 9 written out as PLY.
+    let ply = d.path().join("tube9.ply");
+    let out = speleo(&[
+        "world",
+        "export",
+        "lava-tube",
+        ply.to_str().expect("utf8"),
+        "--seed",
+        "9",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    for world in ["lava-tube", "garage", ply.to_str().expect("utf8")] {
+        let a = sim_hashes(d.path(), world, "4");
+        let b = sim_hashes(d.path(), world, "4");
+        // Inputs: the LiDAR, IMU and CAN bytes; outputs: everything decoded.
+        assert_eq!(a, b, "{world}");
     }
-    assert_eq!(hash_of(&a), hash_of(&b));
+    // Another seed is another cave (and other sensor noise).
+    let a = sim_hashes(d.path(), "lava-tube", "4");
+    let c = sim_hashes(d.path(), "lava-tube", "5");
+    assert_ne!(a.1, c.1);
 }
 
 /// Run `speleo sim` with `toml` as its configuration file `name`; it must
@@ -93,9 +120,10 @@ fn a_recording_whose_process_was_killed_replays_up_to_its_last_chunk() {
         .spawn()
         .expect("spawn");
     let start = Instant::now();
-    while std::fs::metadata(&log).map_or(0, |m| m.len()) < 400_000 {
+    // Past the first second of LiDAR data (about 3 MB a simulated second).
+    while std::fs::metadata(&log).map_or(0, |m| m.len()) < 5_000_000 {
         assert!(
-            start.elapsed() < Duration::from_secs(60),
+            start.elapsed() < Duration::from_secs(120),
             "recording did not grow"
         );
         std::thread::sleep(Duration::from_millis(20));

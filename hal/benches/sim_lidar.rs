@@ -25,10 +25,13 @@ fn bench(c: &mut Criterion) {
                     1,
                 );
                 let (x0, y0, z0, yaw) = (w.start[0], w.start[1], w.start[2] + 0.7, w.start[3]);
-                let pose = |t: f64| SensorPose {
-                    p: [x0 + 0.4 * t * yaw.cos(), y0 + 0.4 * t * yaw.sin(), z0],
-                    yaw,
-                    ..SensorPose::default()
+                let pose = |t: f64| {
+                    SensorPose::from_ypr(
+                        [x0 + 0.4 * t * yaw.cos(), y0 + 0.4 * t * yaw.sin(), z0],
+                        yaw,
+                        0.0,
+                        0.0,
+                    )
                 };
                 let mut packets = 0;
                 for k in 0..1000u64 {

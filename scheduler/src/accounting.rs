@@ -11,12 +11,15 @@ use std::cell::Cell;
 
 use crate::MAX_TASKS;
 
-/// Slot 0 is the executive, slot `1 + i` task `i`, and the last slot the
-/// application's housekeeping between frames (logging, progress display),
-/// which is kept apart from the periodic work.
-pub const SLOTS: usize = MAX_TASKS + 2;
+/// Slot 0 is the executive, slot `1 + i` task `i`, then the application's
+/// housekeeping between frames (logging, progress display) and the simulated
+/// world (physics and sensor twins, which stand for the outside world and
+/// are not on-board work); both are kept apart from the periodic work.
+pub const SLOTS: usize = MAX_TASKS + 3;
 /// The housekeeping slot.
 pub const HOUSEKEEPING: u16 = (MAX_TASKS + 1) as u16;
+/// The simulated world's slot.
+pub const WORLD: u16 = (MAX_TASKS + 2) as u16;
 const UNTRACKED: u16 = u16::MAX;
 
 thread_local! {

@@ -4,7 +4,6 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use base64::Engine;
 use speleo_firmware::cli::{Outputs, ReplayArgs, SimArgs};
 use speleo_firmware::modes;
 
@@ -134,14 +133,12 @@ pub fn rewrite_mcap(
     edited
 }
 
-/// Flip bit `mask` of byte `index` of a raw-input message's payload.
+/// Flip bit `mask` of byte `index` of a raw-input message's payload (the
+/// `uint8[] data` at the end of a CDR `RawInput`).
 pub fn flip_raw_byte(data: &[u8], index: usize, mask: u8) -> Vec<u8> {
-    let mut v: serde_json::Value = serde_json::from_slice(data).unwrap_or_else(|e| panic!("{e}"));
-    let b64 = base64::engine::general_purpose::STANDARD;
-    let mut raw = b64
-        .decode(v["data"].as_str().unwrap_or_default())
-        .unwrap_or_else(|e| panic!("{e}"));
-    raw[index] ^= mask;
-    v["data"] = serde_json::Value::String(b64.encode(&raw));
-    serde_json::to_vec(&v).unwrap_or_else(|e| panic!("{e}"))
+    let raw = speleo_firmware::record::cdr::read_raw_input(data).unwrap_or_else(|e| panic!("{e}"));
+    let start = data.len() - raw.data.len();
+    let mut v = data.to_vec();
+    v[start + index] ^= mask;
+    v
 }

@@ -71,7 +71,7 @@ fn run_mission(cfg: &Config, hw: &mut dyn Hardware, truth: &TruthProbe) -> missi
 
 /// 5 s healthy, then 5 s with `fault` in drive 2.
 fn fly(fault: Fault) -> (mission::MissionResult, TruthProbe) {
-    let sim = SimHardware::new(&SimParams::default());
+    let sim = SimHardware::new(&SimParams::default()).expect("sim");
     let truth = sim.truth_probe();
     let mut hw = Faulty {
         sim,
@@ -90,8 +90,15 @@ fn a_drive_that_loses_power_stops_the_rover() {
     let (r, truth) = fly(Fault::PowerCut);
     let t = truth.get();
     assert_eq!(r.mode, Mode::Safe, "safe mode after the heartbeat was lost");
-    assert!(t.speed.abs() < STOPPED, "still moving at {} m/s", t.speed);
-    assert!(t.x.hypot(t.y) > 1.0, "it had driven before the fault");
+    assert!(
+        t.forward_speed().abs() < STOPPED,
+        "still moving at {} m/s",
+        t.forward_speed()
+    );
+    assert!(
+        t.position[0].hypot(t.position[1]) > 1.0,
+        "it had driven before the fault"
+    );
     // Sensors are still decoded in safe mode.
     let imu = r
         .tasks
@@ -105,7 +112,11 @@ fn a_drive_that_loses_power_stops_the_rover() {
 fn a_drive_fault_stops_the_rover() {
     let (r, truth) = fly(Fault::DriveFault);
     assert_eq!(r.mode, Mode::Safe);
-    assert!(truth.get().speed.abs() < STOPPED, "{}", truth.get().speed);
+    assert!(
+        truth.get().forward_speed().abs() < STOPPED,
+        "{}",
+        truth.get().forward_speed()
+    );
 }
 
 #[test]
@@ -113,12 +124,16 @@ fn commands_that_go_stale_hold_the_wheels() {
     // The path follower runs only every 300 ms: longer than the 100 ms
     // freshness limit of wheel commands, so the wheels are held between runs.
     let cfg = Config::from_toml("[tasks.control]\ndivisor = 30\noffset = 1\n").expect("config");
-    let mut sim = SimHardware::new(&SimParams::default());
+    let mut sim = SimHardware::new(&SimParams::default()).expect("sim");
     let truth = sim.truth_probe();
     let r = run_mission(&cfg, &mut sim, &truth);
     // Stale commands are not a failure: no safe mode, but little progress
     // (each command drives for 100 ms out of every 300 ms at most).
     assert_eq!(r.mode, Mode::Nominal);
     let t = truth.get();
-    assert!(t.x.hypot(t.y) < 0.5 * 0.4 * 10.0, "{} m", t.x.hypot(t.y));
+    assert!(
+        t.position[0].hypot(t.position[1]) < 0.5 * 0.4 * 10.0,
+        "{} m",
+        t.position[0].hypot(t.position[1])
+    );
 }

@@ -1,6 +1,7 @@
 //! Every channel has a schema and the file reads back with the mcap crate's
 //! standard readers (summary, indexed messages, linear stream).
 
+use speleo_firmware::record::cdr::read_raw_input;
 use speleo_tests::{sim, Scratch};
 
 #[test]
@@ -18,10 +19,18 @@ fn every_channel_has_a_schema_and_the_file_reads_back() {
             .schema
             .as_ref()
             .unwrap_or_else(|| panic!("{} has no schema", c.topic));
-        assert_eq!(schema.encoding, "jsonschema", "{}", c.topic);
-        assert_eq!(c.message_encoding, "json", "{}", c.topic);
-        let v: serde_json::Value = serde_json::from_slice(&schema.data).expect("schema is JSON");
-        assert_eq!(v["title"], schema.name.as_str());
+        if c.message_encoding == "cdr" {
+            // Raw bytes and point clouds: ROS 2 message definitions.
+            assert_eq!(schema.encoding, "ros2msg", "{}", c.topic);
+            let text = std::str::from_utf8(&schema.data).expect("schema is text");
+            assert!(text.contains("MSG: builtin_interfaces/Time"), "{}", c.topic);
+        } else {
+            assert_eq!(schema.encoding, "jsonschema", "{}", c.topic);
+            assert_eq!(c.message_encoding, "json", "{}", c.topic);
+            let v: serde_json::Value =
+                serde_json::from_slice(&schema.data).expect("schema is JSON");
+            assert_eq!(v["title"], schema.name.as_str());
+        }
     }
     let names: Vec<&str> = summary
         .channels
@@ -33,6 +42,8 @@ fn every_channel_has_a_schema_and_the_file_reads_back() {
         "/tf",
         "/raw/imu",
         "/raw/can",
+        "/raw/lidar",
+        "/lidar/points",
         "/health",
         "/scheduler",
         "/plan",
@@ -41,11 +52,32 @@ fn every_channel_has_a_schema_and_the_file_reads_back() {
     }
     let stats = summary.stats.as_ref().expect("statistics");
     let mut n = 0u64;
+    let mut clouds = 0;
     for m in mcap::MessageStream::new(&bytes).expect("stream") {
         let m = m.expect("message");
-        let _: serde_json::Value = serde_json::from_slice(&m.data).expect("message is JSON");
+        match (
+            m.channel.message_encoding.as_str(),
+            m.channel.topic.as_str(),
+        ) {
+            ("cdr", "/lidar/points") => {
+                // A CDR PointCloud2 of 20-byte points: little-endian header,
+                // then the stamp; the data is most of the message.
+                assert_eq!(&m.data[..2], &[0, 1]);
+                assert!(m.data.len() > 20 * 10_000, "{}", m.data.len());
+                clouds += 1;
+            }
+            ("cdr", _) => {
+                let raw = read_raw_input(&m.data).expect("a CDR RawInput");
+                assert!(!raw.data.is_empty());
+            }
+            _ => {
+                let _: serde_json::Value =
+                    serde_json::from_slice(&m.data).expect("message is JSON");
+            }
+        }
         n += 1;
     }
+    assert!(clouds >= 1, "the default simulation records point clouds");
     assert_eq!(n, stats.message_count);
     // log_time is the frame time, sequence the frame number.
     for m in mcap::MessageStream::new(&bytes).expect("stream").take(200) {

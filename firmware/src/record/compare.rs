@@ -63,10 +63,11 @@ impl Comparer {
     }
 
     fn diverge(&mut self, topic: Topic, frame: u64, kind: DivergenceKind, actual: &[u8]) {
-        // Within one frame, keep the most upstream topic (Topic::ALL follows
-        // the data flow), so the report names the cause, not a consequence.
+        // Within one frame, keep the most upstream topic, so the report
+        // names the cause, not a consequence.
         if let Some(d) = &self.divergence {
-            if d.frame < frame || (d.frame == frame && (d.topic as usize) <= (topic as usize)) {
+            let key = |t: Topic| (t.flow_rank(), t as usize);
+            if d.frame < frame || (d.frame == frame && key(d.topic) <= key(topic)) {
                 return;
             }
         }

@@ -100,22 +100,6 @@ pub struct FrameTransform<'a> {
     pub rotation: Quaternion,
 }
 
-/// Bytes as base64 text, encoded through a caller-provided scratch buffer.
-pub struct Base64<'a>(pub &'a str);
-
-impl Serialize for Base64<'_> {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.0)
-    }
-}
-
-#[derive(Serialize)]
-pub struct RawInput<'a> {
-    pub receive_time: Time,
-    pub device: &'a str,
-    pub data: Base64<'a>,
-}
-
 /// Serialise an iterator as a JSON array without collecting it.
 pub struct SeqOf<I>(pub std::cell::Cell<Option<I>>);
 

@@ -1,6 +1,7 @@
 //! MCAP recording: every raw input and every task output, with schemas, so a
 //! run opens in Foxglove and replays exactly.
 
+pub mod cdr;
 pub mod compare;
 pub mod encode;
 pub mod read;

@@ -6,7 +6,6 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use base64::Engine;
 use enumset::enum_set;
 use speleo_hal::replay::RecordedInput;
 use speleo_hal::Device;
@@ -122,12 +121,6 @@ pub fn scan_records(bytes: &[u8]) -> RecordScan {
     }
 }
 
-#[derive(serde::Deserialize)]
-struct RawJson {
-    device: String,
-    data: String,
-}
-
 pub fn load(path: &Path) -> Result<Recording, ReadError> {
     let p = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|source| ReadError::Io {
@@ -219,18 +212,15 @@ pub fn load(path: &Path) -> Result<Recording, ReadError> {
                             sequence: header.sequence,
                             why,
                         };
-                        let raw: RawJson =
-                            serde_json::from_slice(&data).map_err(|e| bad(e.to_string()))?;
-                        let device = Device::from_name(&raw.device)
+                        let raw = super::cdr::read_raw_input(&data)
+                            .map_err(|e| bad(format!("not a CDR RawInput: {e}")))?;
+                        let device = Device::from_name(raw.device)
                             .ok_or_else(|| bad(format!("unknown device \"{}\"", raw.device)))?;
-                        let bytes = base64::engine::general_purpose::STANDARD
-                            .decode(raw.data.as_bytes())
-                            .map_err(|e| bad(format!("data is not base64: {e}")))?;
                         rec.inputs.push(RecordedInput {
                             frame,
                             device,
                             receive_time_ns: header.publish_time.saturating_sub(epoch(&rec.run)),
-                            bytes,
+                            bytes: raw.data.to_vec(),
                         });
                     }
                     Role::Telemetry | Role::Sim => {}

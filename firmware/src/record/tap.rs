@@ -5,17 +5,12 @@
 use std::collections::BTreeMap;
 use std::thread::Thread;
 
-use base64::Engine;
 use xxhash_rust::xxh3::Xxh3Default;
 
 use super::compare::Comparer;
-use super::encode::{Base64, Bounded, RawInput, Time};
+use super::encode::{Bounded, Time};
 use super::topics::{Role, Topic};
 use super::writer::{Outgoing, WriterMsg, MESSAGE_CAPACITY, NAP};
-
-/// Longest raw input recorded (an HDL-32E packet is 1206 bytes; a serial read
-/// is bounded by the driver's buffer).
-pub const MAX_RAW_INPUT: usize = 4096;
 
 struct TapWriter {
     tx: rtrb::Producer<WriterMsg>,
@@ -49,8 +44,9 @@ pub struct RecorderTap {
     local_large: Vec<u8>,
     /// Pooled buffers (small, large) kept back after a refused message.
     spare: [Option<Vec<u8>>; 2],
-    base64: Vec<u8>,
     hasher: Xxh3Default,
+    /// Over every raw input: the device byte streams as received.
+    input_hasher: Xxh3Default,
     pub counters: TapCounters,
     compare: Option<Comparer>,
 }
@@ -65,8 +61,8 @@ impl RecorderTap {
             local: Vec::with_capacity(MESSAGE_CAPACITY),
             local_large: Vec::with_capacity(large_capacity),
             spare: [None, None],
-            base64: vec![0; MAX_RAW_INPUT.div_ceil(3) * 4],
             hasher: Xxh3Default::new(),
+            input_hasher: Xxh3Default::new(),
             counters: TapCounters::default(),
             compare,
         }
@@ -157,6 +153,10 @@ impl RecorderTap {
             if let Some(c) = self.compare.as_mut() {
                 c.check(topic, frame, &buf);
             }
+        } else if topic.info().role == Role::Input {
+            self.input_hasher.update(&topic.channel_id().to_le_bytes());
+            self.input_hasher.update(&(buf.len() as u64).to_le_bytes());
+            self.input_hasher.update(&buf);
         }
         if !pooled {
             self.put_back(buf, false, large);
@@ -182,7 +182,7 @@ impl RecorderTap {
         }
     }
 
-    /// Record one raw input, its bytes as base64.
+    /// Record one raw input (CDR `RawInput`: the bytes as they are).
     pub fn raw(
         &mut self,
         topic: Topic,
@@ -192,24 +192,10 @@ impl RecorderTap {
         receive_ns: u64,
         bytes: &[u8],
     ) {
-        let mut scratch = std::mem::take(&mut self.base64);
-        let n = base64::engine::general_purpose::STANDARD
-            .encode_slice(bytes, &mut scratch[..])
-            .unwrap_or(usize::MAX);
-        if n == usize::MAX {
-            self.counters.too_large += 1;
-        } else {
-            let text = std::str::from_utf8(&scratch[..n]).unwrap_or("");
-            let msg = RawInput {
-                receive_time: self.time(receive_ns),
-                device,
-                data: Base64(text),
-            };
-            self.emit(topic, frame, frame_ns, receive_ns, |w| {
-                serde_json::to_writer(w, &msg)
-            });
-        }
-        self.base64 = scratch;
+        let t = self.time(receive_ns);
+        self.emit_sized(topic, frame, frame_ns, receive_ns, false, |w| {
+            super::cdr::write_raw_input(w, t.sec, t.nsec, device, bytes)
+        });
     }
 
     /// A buffer for the next message, and whether it goes to the writer.
@@ -262,6 +248,11 @@ impl RecorderTap {
     }
 
     /// Hash over every output message so far, in order.
+    /// Hash of every raw input recorded (device, receive time and bytes).
+    pub fn input_hash(&self) -> u64 {
+        self.input_hasher.digest()
+    }
+
     pub fn output_hash(&self) -> u64 {
         self.hasher.digest()
     }

@@ -1,6 +1,8 @@
 //! Every recorded topic, its schema and its role. Channel ids are fixed by
 //! this table, so recordings of the same software always agree.
 
+use super::cdr;
+
 /// What a topic carries, which decides how replay treats it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Role {
@@ -50,9 +52,34 @@ pub struct TopicInfo {
     pub topic: Topic,
     pub name: &'static str,
     pub schema: &'static str,
-    pub schema_json: &'static str,
+    /// The schema's text: a JSON schema, or a ros2msg definition for CDR.
+    pub schema_data: &'static str,
+    /// Raw bytes and point clouds are CDR (`ros2msg` schemas); the rest JSON.
+    pub cdr: bool,
     pub role: Role,
 }
+
+impl TopicInfo {
+    /// MCAP's schema encoding.
+    pub fn schema_encoding(&self) -> &'static str {
+        if self.cdr {
+            "ros2msg"
+        } else {
+            "jsonschema"
+        }
+    }
+
+    /// MCAP's message encoding.
+    pub fn message_encoding(&self) -> &'static str {
+        if self.cdr {
+            "cdr"
+        } else {
+            "json"
+        }
+    }
+}
+
+const RAW: &str = "speleo_msgs/msg/RawInput";
 
 impl Topic {
     pub const ALL: [Topic; 17] = [
@@ -75,6 +102,21 @@ impl Topic {
         Topic::SimTf,
     ];
 
+    /// Position in the data flow (decoded inputs first, commands to the
+    /// devices last): within one frame, a divergence in a lower rank is the
+    /// cause of those in higher ranks.
+    pub fn flow_rank(self) -> u8 {
+        match self {
+            Topic::RawLidar | Topic::RawLidarPosition | Topic::RawImu | Topic::RawCan => 0,
+            Topic::Imu | Topic::Cloud | Topic::Drives => 1,
+            Topic::Odom | Topic::Tf => 2,
+            Topic::WheelCommand | Topic::Plan => 3,
+            Topic::Health => 4,
+            Topic::ImuTx | Topic::CanTx => 5,
+            Topic::Scheduler | Topic::GroundTruth | Topic::SimTf => 6,
+        }
+    }
+
     /// MCAP channel id.
     pub fn channel_id(self) -> u16 {
         self as u16 + 1
@@ -85,23 +127,18 @@ impl Topic {
     }
 
     pub fn info(self) -> TopicInfo {
-        let (name, schema, schema_json, role) = match self {
-            Topic::RawLidar => ("/raw/lidar", "speleo.RawInput", RAW_INPUT, Role::Input),
-            Topic::RawLidarPosition => (
-                "/raw/lidar_position",
-                "speleo.RawInput",
-                RAW_INPUT,
-                Role::Input,
-            ),
-            Topic::RawImu => ("/raw/imu", "speleo.RawInput", RAW_INPUT, Role::Input),
-            Topic::RawCan => ("/raw/can", "speleo.RawInput", RAW_INPUT, Role::Input),
-            Topic::ImuTx => ("/imu/tx", "speleo.RawInput", RAW_INPUT, Role::Output),
+        let (name, schema, schema_data, role) = match self {
+            Topic::RawLidar => ("/raw/lidar", RAW, cdr::RAW_INPUT, Role::Input),
+            Topic::RawLidarPosition => ("/raw/lidar_position", RAW, cdr::RAW_INPUT, Role::Input),
+            Topic::RawImu => ("/raw/imu", RAW, cdr::RAW_INPUT, Role::Input),
+            Topic::RawCan => ("/raw/can", RAW, cdr::RAW_INPUT, Role::Input),
+            Topic::ImuTx => ("/imu/tx", RAW, cdr::RAW_INPUT, Role::Output),
             Topic::CanTx => ("/can/tx", "speleo.CanFrames", CAN_FRAMES, Role::Output),
             Topic::Imu => ("/imu", "speleo.ImuSample", IMU_SAMPLE, Role::Output),
             Topic::Cloud => (
                 "/lidar/points",
-                "foxglove.PointCloud",
-                POINT_CLOUD,
+                "sensor_msgs/msg/PointCloud2",
+                cdr::POINT_CLOUD2,
                 Role::Output,
             ),
             Topic::Drives => (
@@ -137,7 +174,7 @@ impl Topic {
                 POSE_IN_FRAME,
                 Role::Sim,
             ),
-            // world -> odom: the simulated rover starts at the world origin.
+            // world -> odom: where the simulated rover started.
             Topic::SimTf => (
                 "/sim/tf",
                 "foxglove.FrameTransform",
@@ -149,7 +186,8 @@ impl Topic {
             topic: self,
             name,
             schema,
-            schema_json,
+            schema_data,
+            cdr: schema_data == cdr::RAW_INPUT || schema_data == cdr::POINT_CLOUD2,
             role,
         }
     }
@@ -167,10 +205,6 @@ const POSE_IN_FRAME: &str = r#"{"title":"foxglove.PoseInFrame","description":"A 
 const FRAME_TRANSFORM: &str = r#"{"title":"foxglove.FrameTransform","description":"A transform between two reference frames in 3D space","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"parent_frame_id":{"type":"string"},"child_frame_id":{"type":"string"},"translation":{"title":"foxglove.Vector3","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"rotation":{"title":"foxglove.Quaternion","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}}}"#;
 
 const SCENE_UPDATE: &str = r#"{"title":"foxglove.SceneUpdate","description":"An update to the entities displayed in a 3D scene","type":"object","properties":{"deletions":{"type":"array","items":{"type":"object"}},"entities":{"type":"array","items":{"title":"foxglove.SceneEntity","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"frame_id":{"type":"string"},"id":{"type":"string"},"lifetime":{"type":"object","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frame_locked":{"type":"boolean"},"metadata":{"type":"array","items":{"type":"object"}},"arrows":{"type":"array"},"cubes":{"type":"array"},"spheres":{"type":"array"},"cylinders":{"type":"array"},"lines":{"type":"array","items":{"title":"foxglove.LinePrimitive","type":"object","properties":{"type":{"type":"integer","description":"0 LINE_STRIP, 1 LINE_LOOP, 2 LINE_LIST"},"pose":{"type":"object"},"thickness":{"type":"number"},"scale_invariant":{"type":"boolean"},"points":{"type":"array","items":{"type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}}},"color":{"type":"object","properties":{"r":{"type":"number"},"g":{"type":"number"},"b":{"type":"number"},"a":{"type":"number"}}},"colors":{"type":"array"},"indices":{"type":"array"}}}},"triangles":{"type":"array"},"texts":{"type":"array"},"models":{"type":"array"}}}}}}"#;
-
-const POINT_CLOUD: &str = r#"{"title":"foxglove.PointCloud","description":"A collection of N-dimensional points, which may contain additional fields with information like normals, intensity, etc.","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"frame_id":{"type":"string"},"pose":{"title":"foxglove.Pose","type":"object","properties":{"position":{"title":"foxglove.Vector3","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"}}},"orientation":{"title":"foxglove.Quaternion","type":"object","properties":{"x":{"type":"number"},"y":{"type":"number"},"z":{"type":"number"},"w":{"type":"number"}}}}},"point_stride":{"type":"integer","minimum":0},"fields":{"type":"array","items":{"title":"foxglove.PackedElementField","type":"object","properties":{"name":{"type":"string"},"offset":{"type":"integer","minimum":0},"type":{"type":"integer","description":"1 UINT8, 2 INT8, 3 UINT16, 4 INT16, 5 UINT32, 6 INT32, 7 FLOAT32, 8 FLOAT64"}}}},"data":{"type":"string","contentEncoding":"base64"}}}"#;
-
-const RAW_INPUT: &str = r#"{"title":"speleo.RawInput","description":"Bytes exactly as received from a device","type":"object","properties":{"receive_time":{"type":"object","title":"time","properties":{"sec":{"type":"integer","minimum":0},"nsec":{"type":"integer","minimum":0,"maximum":999999999}}},"device":{"type":"string","enum":["lidar","lidar_position","imu","can"]},"data":{"type":"string","contentEncoding":"base64","description":"lidar: one UDP payload; imu: a serial read; can: one SocketCAN struct can_frame (16 bytes)"}}}"#;
 
 const CAN_FRAMES: &str = r#"{"title":"speleo.CanFrames","description":"CAN frames queued for the bus in this frame (sent at the start of the next)","type":"object","properties":{"timestamp":{"type":"object","title":"time","properties":{"sec":{"type":"integer"},"nsec":{"type":"integer"}}},"frames":{"type":"array","items":{"type":"object","properties":{"id":{"type":"integer"},"data":{"type":"array","items":{"type":"integer"}}}}}}}"#;
 
@@ -192,8 +226,10 @@ mod tests {
     fn every_schema_is_json_and_ids_round_trip() {
         for t in Topic::ALL {
             let i = t.info();
-            let v: serde_json::Value = serde_json::from_str(i.schema_json).expect(i.name);
-            assert_eq!(v["title"], i.schema, "{}", i.name);
+            if !i.cdr {
+                let v: serde_json::Value = serde_json::from_str(i.schema_data).expect(i.name);
+                assert_eq!(v["title"], i.schema, "{}", i.name);
+            }
             assert_eq!(Topic::from_channel_id(t.channel_id()), Some(t));
             assert_eq!(Topic::by_name(i.name), Some(t));
         }

@@ -87,7 +87,7 @@ fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
             Some(id) => *id,
             None => {
                 let id = w
-                    .add_schema(i.schema, "jsonschema", i.schema_json.as_bytes())
+                    .add_schema(i.schema, i.schema_encoding(), i.schema_data.as_bytes())
                     .map_err(|e| e.to_string())?;
                 schema_ids.insert(i.schema, id);
                 id
@@ -95,7 +95,7 @@ fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
         };
         let mut meta = BTreeMap::new();
         meta.insert("speleo.role".to_string(), i.role.as_str().to_string());
-        w.add_channel_with_id(t.channel_id(), sid, i.name, "json", &meta)
+        w.add_channel_with_id(t.channel_id(), sid, i.name, i.message_encoding(), &meta)
             .map_err(|e| e.to_string())?;
     }
     w.write_metadata(&mcap::records::Metadata {

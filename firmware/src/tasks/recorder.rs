@@ -29,6 +29,8 @@ pub struct RecorderTask<'r> {
     plan: Vec<[f64; 2]>,
     plan_looped: bool,
     cloud_seen: u64,
+    /// Record one revolution in this many (the raw packets hold them all).
+    cloud_every: u64,
     /// base_link -> lidar: translation and (w, x, y, z) rotation.
     lidar_mount: ([f64; 3], [f64; 4]),
 }
@@ -45,6 +47,7 @@ impl<'r> RecorderTask<'r> {
         let q = nalgebra::UnitQuaternion::from_euler_angles(r, p, y).into_inner();
         RecorderTask {
             cloud_seen: 0,
+            cloud_every: 1,
             lidar_mount: (mount_xyz, [q.w, q.i, q.j, q.k]),
             tap,
             imu_cursor: 0,
@@ -55,6 +58,12 @@ impl<'r> RecorderTask<'r> {
             plan,
             plan_looped,
         }
+    }
+
+    /// Record only every `n`th decoded revolution.
+    pub fn with_cloud_every(mut self, n: u32) -> Self {
+        self.cloud_every = n.max(1) as u64;
+        self
     }
 }
 
@@ -232,7 +241,11 @@ impl Task<Bus> for RecorderTask<'_> {
             });
         }
 
-        if let Some(c) = bus.cloud.newer_than(self.cloud_seen) {
+        if let Some(c) = bus
+            .cloud
+            .newer_than(self.cloud_seen)
+            .filter(|c| (c.seq - 1).is_multiple_of(self.cloud_every))
+        {
             self.cloud_seen = c.seq;
             let ts = tap.time(c.stamp_ns);
             let points = &c.value.points;
@@ -427,53 +440,54 @@ impl RecorderTask<'_> {
     }
 }
 
-/// A foxglove.PointCloud in JSON: 20-byte points (x, y, z, time as f32,
-/// intensity and ring as u8, 2 bytes padding) streamed as base64 in chunks,
-/// so no buffer beyond the message itself is needed.
+/// A `sensor_msgs/PointCloud2` in CDR: an unordered cloud of 20-byte points
+/// (x, y, z and the firing time since the revolution's stamp as float32,
+/// intensity and ring as uint8, 2 bytes padding), written point by point so
+/// no buffer beyond the message itself is needed.
 fn write_cloud(
     w: &mut crate::record::encode::Bounded<'_>,
     ts: Time,
     points: &[speleo_hal::hdl32e::Point],
 ) -> std::io::Result<()> {
-    use base64::Engine;
-    use std::io::Write;
-    const STRIDE: usize = 20;
-    // 150 points = 3000 bytes, a multiple of 3: base64 padding only at the end.
-    const CHUNK: usize = 150;
-    write!(
-        w,
-        "{{\"timestamp\":{{\"sec\":{},\"nsec\":{}}},\"frame_id\":\"lidar\",\
-         \"pose\":{{\"position\":{{\"x\":0.0,\"y\":0.0,\"z\":0.0}},\
-         \"orientation\":{{\"x\":0.0,\"y\":0.0,\"z\":0.0,\"w\":1.0}}}},\
-         \"point_stride\":{STRIDE},\"fields\":[\
-         {{\"name\":\"x\",\"offset\":0,\"type\":7}},\
-         {{\"name\":\"y\",\"offset\":4,\"type\":7}},\
-         {{\"name\":\"z\",\"offset\":8,\"type\":7}},\
-         {{\"name\":\"time\",\"offset\":12,\"type\":7}},\
-         {{\"name\":\"intensity\",\"offset\":16,\"type\":1}},\
-         {{\"name\":\"ring\",\"offset\":17,\"type\":1}}],\"data\":\"",
-        ts.sec, ts.nsec
-    )?;
-    let mut raw = [0u8; CHUNK * STRIDE];
-    let mut text = [0u8; CHUNK * STRIDE / 3 * 4];
-    for chunk in points.chunks(CHUNK) {
-        for (i, p) in chunk.iter().enumerate() {
-            let o = i * STRIDE;
-            raw[o..o + 4].copy_from_slice(&p.x.to_le_bytes());
-            raw[o + 4..o + 8].copy_from_slice(&p.y.to_le_bytes());
-            raw[o + 8..o + 12].copy_from_slice(&p.z.to_le_bytes());
-            raw[o + 12..o + 16].copy_from_slice(&p.time.to_le_bytes());
-            raw[o + 16] = p.intensity;
-            raw[o + 17] = p.ring;
-            raw[o + 18] = 0;
-            raw[o + 19] = 0;
-        }
-        let n = base64::engine::general_purpose::STANDARD
-            .encode_slice(&raw[..chunk.len() * STRIDE], &mut text)
-            .map_err(std::io::Error::other)?;
-        w.write_all(&text[..n])?;
+    use crate::record::cdr::CdrWriter;
+    const STRIDE: u32 = 20;
+    const FLOAT32: u8 = 7;
+    const UINT8: u8 = 2;
+    const FIELDS: [(&str, u32, u8); 6] = [
+        ("x", 0, FLOAT32),
+        ("y", 4, FLOAT32),
+        ("z", 8, FLOAT32),
+        ("time", 12, FLOAT32),
+        ("intensity", 16, UINT8),
+        ("ring", 17, UINT8),
+    ];
+    let mut c = CdrWriter::new(w)?;
+    c.time(ts.sec, ts.nsec)?;
+    c.string("lidar")?;
+    c.u32(1)?;
+    c.u32(points.len() as u32)?;
+    c.sequence_len(FIELDS.len())?;
+    for (name, offset, datatype) in FIELDS {
+        c.string(name)?;
+        c.u32(offset)?;
+        c.u8(datatype)?;
+        c.u32(1)?;
     }
-    w.write_all(b"\"}")
+    c.bool(false)?;
+    c.u32(STRIDE)?;
+    c.u32(STRIDE * points.len() as u32)?;
+    c.sequence_len(points.len() * STRIDE as usize)?;
+    let mut raw = [0u8; STRIDE as usize];
+    for p in points {
+        raw[0..4].copy_from_slice(&p.x.to_le_bytes());
+        raw[4..8].copy_from_slice(&p.y.to_le_bytes());
+        raw[8..12].copy_from_slice(&p.z.to_le_bytes());
+        raw[12..16].copy_from_slice(&p.time.to_le_bytes());
+        raw[16] = p.intensity;
+        raw[17] = p.ring;
+        c.bytes_part(&raw)?;
+    }
+    c.bool(true)
 }
 
 #[derive(Serialize)]

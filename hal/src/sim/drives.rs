@@ -9,7 +9,7 @@
 //! when its commands go stale (the drive's own watchdog) or when it is not in
 //! profile velocity mode.
 
-use super::rover::{Rover, WHEELS};
+use super::body::{BodyState, WHEELS};
 use crate::can::CanFrame;
 use crate::canopen::sdo::{Sdo, ABORT_NO_OBJECT, ABORT_READ_ONLY, ABORT_VALUE_RANGE};
 use crate::canopen::{self, classify, Event, NmtCommand, NmtState};
@@ -315,7 +315,7 @@ impl SimDrives {
     }
 
     /// Read the encoders of the rover's wheels.
-    pub fn observe(&mut self, rover: &Rover) {
+    pub fn observe(&mut self, rover: &BodyState) {
         let per_rad = cia402::COUNTS_PER_REV as f64 / (2.0 * core::f64::consts::PI);
         for (i, d) in self.drives.iter_mut().enumerate() {
             d.velocity = (rover.wheel_speed[i] * 1000.0).round() as i32;

@@ -1,9 +1,16 @@
 //! Twin of the Xsens MTi: MTData2 frames with orientation, acceleration,
 //! rate of turn, packet counter, sample time and status, with white noise and
 //! a gyro bias random walk from a datasheet-like model.
+//!
+//! The MTi samples far faster than it reports and integrates in between
+//! (strapdown integration), so rate of turn and acceleration are the means
+//! over each output interval: leg strikes are averaged, not aliased. The IMU
+//! may be mounted slightly rotated against base_link (and so against the
+//! LiDAR): that misalignment is the error the SLAM bias state estimates.
 
+use super::body::BodyState;
 use super::noise::Noise;
-use super::rover::Rover;
+use super::quat::{self, Quat};
 use crate::mtdata2::Precision;
 use crate::outbox::Outbox;
 use crate::xbus::{self, XbusDecoder};
@@ -24,6 +31,8 @@ pub struct ImuParams {
     pub gyro_bias_walk: f64,
     /// Serial line speed; sets when the last byte of a frame arrives.
     pub baud: u32,
+    /// IMU frame against base_link: roll, pitch, yaw, rad.
+    pub misalignment_rpy: [f64; 3],
 }
 
 impl Default for ImuParams {
@@ -36,11 +45,10 @@ impl Default for ImuParams {
             gyro_bias_sigma: 5e-4,
             gyro_bias_walk: 2e-5,
             baud: 921_600,
+            misalignment_rpy: [0.0; 3],
         }
     }
 }
-
-pub const GRAVITY: f64 = 9.81;
 
 pub struct SimImu {
     p: ImuParams,
@@ -49,8 +57,16 @@ pub struct SimImu {
     next_sample_ns: u64,
     counter: u16,
     gyro_bias: [f64; 3],
-    /// The device's own yaw estimate (integrated gyro: drifts with the bias).
-    yaw_estimate: f64,
+    /// Heading error of the device's own orientation estimate (the
+    /// integrated z gyro bias and noise: it drifts).
+    yaw_drift: f64,
+    /// IMU to base_link.
+    mount: Quat,
+    /// Sums of the true rate of turn and specific force (base_link) since
+    /// the last sample, and their count.
+    sum_rate: [f64; 3],
+    sum_force: [f64; 3],
+    summed: u32,
     last_sample_ns: u64,
     outbox: Outbox<16, 256>,
     /// Streaming (measurement mode) or waiting for configuration.
@@ -82,6 +98,7 @@ impl SimImu {
             noise.gaussian() * p.gyro_bias_sigma,
         ];
         let period_ns = 1_000_000_000 / p.rate_hz.max(1) as u64;
+        let [roll, pitch, yaw] = p.misalignment_rpy;
         SimImu {
             next_sample_ns: p.phase_ns,
             p,
@@ -89,7 +106,11 @@ impl SimImu {
             period_ns,
             counter: 0,
             gyro_bias,
-            yaw_estimate: 0.0,
+            yaw_drift: 0.0,
+            mount: quat::from_ypr(yaw, pitch, roll),
+            sum_rate: [0.0; 3],
+            sum_force: [0.0; 3],
+            summed: 0,
             last_sample_ns: 0,
             outbox: Outbox::new(),
             // A powered MTi streams its stored configuration.
@@ -153,34 +174,56 @@ impl SimImu {
         self.outbox.dropped()
     }
 
-    /// Take a sample if one is due at `t_ns`.
-    pub fn maybe_sample(&mut self, t_ns: u64, rover: &Rover) {
+    /// Integrate the true motion of one simulation step.
+    pub fn observe(&mut self, s: &BodyState) {
+        for k in 0..3 {
+            self.sum_rate[k] += s.angular_velocity[k];
+            self.sum_force[k] += s.specific_force[k];
+        }
+        self.summed += 1;
+    }
+
+    /// Take a sample if one is due at `t_ns`, from the motion observed since
+    /// the last one (or `s` alone if none was observed).
+    pub fn maybe_sample(&mut self, t_ns: u64, s: &BodyState) {
         if t_ns < self.next_sample_ns {
             return;
         }
         self.next_sample_ns += self.period_ns;
         let dt = (t_ns - self.last_sample_ns) as f64 * 1e-9;
         self.last_sample_ns = t_ns;
-        let rate = self.p.rate_hz as f64;
-        let g_sigma = self.p.gyro_noise_density * libm::sqrt(rate);
-        let a_sigma = self.p.accel_noise_density * libm::sqrt(rate);
+        let (rate_b, force_b) = if self.summed > 0 {
+            let n = self.summed as f64;
+            (self.sum_rate.map(|v| v / n), self.sum_force.map(|v| v / n))
+        } else {
+            (s.angular_velocity, s.specific_force)
+        };
+        self.sum_rate = [0.0; 3];
+        self.sum_force = [0.0; 3];
+        self.summed = 0;
+        // Into the IMU's own (misaligned) axes.
+        let rate = quat::rotate_inv(&self.mount, rate_b);
+        let force = quat::rotate_inv(&self.mount, force_b);
+        let hz = self.p.rate_hz as f64;
+        let g_sigma = self.p.gyro_noise_density * libm::sqrt(hz);
+        let a_sigma = self.p.accel_noise_density * libm::sqrt(hz);
         let walk = self.p.gyro_bias_walk * libm::sqrt(dt);
         for b in self.gyro_bias.iter_mut() {
             *b += self.noise.gaussian() * walk;
         }
-        let gyro = [
-            self.gyro_bias[0] + self.noise.gaussian() * g_sigma,
-            self.gyro_bias[1] + self.noise.gaussian() * g_sigma,
-            rover.yaw_rate + self.gyro_bias[2] + self.noise.gaussian() * g_sigma,
-        ];
-        let acc = [
-            rover.accel + self.noise.gaussian() * a_sigma,
-            rover.speed * rover.yaw_rate + self.noise.gaussian() * a_sigma,
-            GRAVITY + self.noise.gaussian() * a_sigma,
-        ];
-        self.yaw_estimate = super::rover::wrap_angle(self.yaw_estimate + gyro[2] * dt);
-        let half = 0.5 * self.yaw_estimate;
-        let q = [libm::cos(half), 0.0, 0.0, libm::sin(half)];
+        let mut gyro = [0.0; 3];
+        for k in 0..3 {
+            gyro[k] = rate[k] + self.gyro_bias[k] + self.noise.gaussian() * g_sigma;
+        }
+        let mut acc = [0.0; 3];
+        for k in 0..3 {
+            acc[k] = force[k] + self.noise.gaussian() * a_sigma;
+        }
+        // Roll and pitch are held by gravity; heading drifts with the
+        // integrated z error.
+        self.yaw_drift = super::rover::wrap_angle(self.yaw_drift + (gyro[2] - rate[2]) * dt);
+        let imu_to_world = quat::mul(&s.orientation, &self.mount);
+        let q = quat::mul(&quat::from_ypr(self.yaw_drift, 0.0, 0.0), &imu_to_world);
         self.counter = self.counter.wrapping_add(1);
         self.now_ns = t_ns;
         self.sample += 1;
@@ -236,5 +279,60 @@ impl SimImu {
             let wire_ns = frame.len() as u64 * 10 * 1_000_000_000 / self.p.baud.max(1) as u64;
             self.outbox.push(t_ns + wire_ns, &frame);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::body::GRAVITY;
+    use crate::xbus::parse_mtdata2;
+
+    /// Mean acceleration and orientation the twin reports for a rover at
+    /// rest on level ground, decoded by the driver's parser.
+    fn at_rest(misalignment_rpy: [f64; 3]) -> ([f64; 3], Quat) {
+        let p = ImuParams {
+            misalignment_rpy,
+            ..ImuParams::default()
+        };
+        let mut imu = SimImu::new(p, 7);
+        let rest = BodyState::default();
+        let mut sum = [0.0; 3];
+        let mut q = quat::IDENTITY;
+        let mut n = 0.0;
+        let mut decoder = XbusDecoder::new();
+        for k in 1..=2000u64 {
+            imu.observe(&rest);
+            imu.maybe_sample(k * 1_000_000, &rest);
+            while let Some((_, bytes)) = imu.outbox().pop_due(u64::MAX) {
+                decoder.push(&bytes, &mut |f| {
+                    let d = parse_mtdata2(f.payload).expect("valid MTData2");
+                    let a = d.acceleration.expect("acceleration");
+                    for i in 0..3 {
+                        sum[i] += a[i] as f64;
+                    }
+                    q = d.quaternion.expect("orientation").map(|c| c as f64);
+                    n += 1.0;
+                });
+            }
+        }
+        assert!(n > 150.0, "{n} samples");
+        (sum.map(|s| s / n), q)
+    }
+
+    #[test]
+    fn a_misaligned_imu_sees_gravity_tilted_by_its_misalignment() {
+        let (level, _) = at_rest([0.0; 3]);
+        assert!(level[0].abs() < 0.01 && level[1].abs() < 0.01, "{level:?}");
+        assert!((level[2] - GRAVITY).abs() < 0.01, "{level:?}");
+        // Rolled 2 deg about x against base_link: the IMU sees the gravity
+        // reaction leaning 2 deg towards its +y axis.
+        let roll = 2.0f64.to_radians();
+        let (tilted, q) = at_rest([roll, 0.0, 0.0]);
+        let seen = libm::atan2(tilted[1], tilted[2]);
+        assert!((seen - roll).abs() < 0.002, "{} deg", seen.to_degrees());
+        // Its orientation output carries the same roll (heading drifts only).
+        let (_, _, r) = quat::to_ypr(&q);
+        assert!((r - roll).abs() < 1e-3, "{} deg", r.to_degrees());
     }
 }

@@ -15,6 +15,7 @@ use parry3d::query::Ray;
 use parry3d::shape::{CompositeShapeRef, TriMesh};
 
 use super::noise::Noise;
+use super::quat::{self, Quat};
 use crate::hdl32e::encode::{Firing, PacketEncoder};
 use crate::hdl32e::{Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS, PACKET_LEN};
 use crate::outbox::Outbox;
@@ -72,6 +73,15 @@ impl LidarWorld {
         })
     }
 
+    /// Distance from `p` to the nearest surface (for checking clouds against
+    /// the ground truth).
+    pub fn distance_to_surface(&self, p: [f64; 3]) -> f64 {
+        use parry3d::query::PointQuery;
+        let q = Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32);
+        let proj = self.mesh.project_local_point(q, false);
+        (proj.point - q).length() as f64
+    }
+
     /// Distance along the unit direction `dir` to the first surface within
     /// `max`, with the cosine of the incidence angle and the surface.
     pub fn cast(&self, origin: [f64; 3], dir: [f64; 3], max: f64) -> Option<(f64, f64, Surface)> {
@@ -88,45 +98,45 @@ impl LidarWorld {
     }
 }
 
-/// Sensor pose: position and yaw, pitch, roll (Z-Y-X).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// Sensor pose in the world: position and orientation (sensor to world).
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SensorPose {
     pub p: [f64; 3],
-    pub yaw: f64,
-    pub pitch: f64,
-    pub roll: f64,
+    pub q: Quat,
+}
+
+impl Default for SensorPose {
+    fn default() -> Self {
+        SensorPose {
+            p: [0.0; 3],
+            q: quat::IDENTITY,
+        }
+    }
 }
 
 impl SensorPose {
+    /// From a position and yaw, pitch, roll (Z-Y-X).
+    pub fn from_ypr(p: [f64; 3], yaw: f64, pitch: f64, roll: f64) -> Self {
+        SensorPose {
+            p,
+            q: quat::from_ypr(yaw, pitch, roll),
+        }
+    }
+
     fn lerp(&self, o: &SensorPose, t: f64) -> SensorPose {
         let l = |a: f64, b: f64| a + (b - a) * t;
-        // Angles are interpolated over the short way round.
-        let la = |a: f64, b: f64| {
-            let d = super::rover::wrap_angle(b - a);
-            a + d * t
-        };
         SensorPose {
             p: [
                 l(self.p[0], o.p[0]),
                 l(self.p[1], o.p[1]),
                 l(self.p[2], o.p[2]),
             ],
-            yaw: la(self.yaw, o.yaw),
-            pitch: la(self.pitch, o.pitch),
-            roll: la(self.roll, o.roll),
+            q: quat::nlerp(&self.q, &o.q, t),
         }
     }
 
-    /// The rotation matrix R = Rz(yaw) Ry(pitch) Rx(roll), rows.
     fn matrix(&self) -> [[f64; 3]; 3] {
-        let (sy, cy) = (libm::sin(self.yaw), libm::cos(self.yaw));
-        let (sp, cp) = (libm::sin(self.pitch), libm::cos(self.pitch));
-        let (sr, cr) = (libm::sin(self.roll), libm::cos(self.roll));
-        [
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ]
+        quat::matrix(&self.q)
     }
 
     /// Rotate a sensor-frame vector into the world.
@@ -296,10 +306,7 @@ mod tests {
     #[test]
     fn a_decoded_revolution_lies_on_the_flat_ground() {
         let w = World::build("flat", 0).expect("flat");
-        let pose = SensorPose {
-            p: [0.0, 0.0, 0.7],
-            ..SensorPose::default()
-        };
+        let pose = SensorPose::from_ypr([0.0, 0.0, 0.7], 0.0, 0.0, 0.0);
         let pts = revolution(&w, pose);
         // The 16 lasers below -2.5 deg hit the ground inside 70 m.
         assert!(pts.len() > 15_000, "{}", pts.len());
@@ -319,11 +326,12 @@ mod tests {
     fn inside_the_lava_tube_every_point_is_on_the_mesh() {
         let w = World::build("lava-tube", 1).expect("tube");
         let lw = LidarWorld::new(&w.mesh).expect("mesh");
-        let pose = SensorPose {
-            p: [w.start[0], w.start[1], w.start[2] + 0.7],
-            yaw: w.start[3],
-            ..SensorPose::default()
-        };
+        let pose = SensorPose::from_ypr(
+            [w.start[0], w.start[1], w.start[2] + 0.7],
+            w.start[3],
+            0.0,
+            0.0,
+        );
         let pts = revolution(&w, pose);
         assert!(pts.len() > 60_000, "{}", pts.len());
         // Re-cast each point's ray: the decoded range agrees with the true one.

@@ -1,39 +1,52 @@
-//! Simulated hardware: a skid-steer rover on flat ground with twins of its
-//! IMU, motor drives and (optionally) HDL-32E that speak the real wire
-//! formats.
+//! Simulated hardware: a skid-steer rover in a world (a generated lava tube,
+//! a garage, flat ground or a mesh file) with twins of its IMU, motor drives
+//! and HDL-32E that speak the real wire formats.
 //!
 //! The rover obeys the wheel velocity commands it receives as CiA 402 PDOs;
-//! its IMU emits Xbus MTData2 frames at 100 Hz and its drives answer every
-//! SYNC with their PDOs. The world is flat ground; the generated caves, the
-//! physics rover and the LiDAR twin replace it in later work, behind the same
-//! traits. Everything is seeded, and the trigonometry is `libm`'s pure-Rust
-//! code, so the byte streams repeat on any machine.
+//! its IMU emits Xbus MTData2 frames at 100 Hz, its drives answer every SYNC
+//! with their PDOs and the LiDAR streams UDP payloads. The rover is either
+//! the rapier3d physics model (the default) or flat-ground kinematics (fast,
+//! for tests of the software around it). Everything is seeded, physics is
+//! built with enhanced determinism and the twins' trigonometry is `libm`'s
+//! pure-Rust code, so the byte streams repeat on any machine.
 
+pub mod body;
 pub mod drives;
 pub mod imu;
 pub mod lidar;
 pub mod noise;
+pub mod physics;
+pub mod quat;
 pub mod rover;
 
 use crate::can::CanFrame;
 use crate::outbox::Outbox;
 use crate::{CanBus, Device, HalError, Hardware, ImuPort, InputSink, LidarSource};
 
-pub use rover::{GroundTruth, RoverParams};
+pub use body::BodyState;
+pub use physics::PhysicsParams;
+pub use rover::RoverParams;
 
-/// Physics step of the flat-ground model.
+/// The true state, as recorded on the ground-truth topic.
+pub type GroundTruth = BodyState;
+
+/// Step of the simulation: physics, drives and sensor twins.
 const STEP_NS: u64 = 1_000_000;
 
 /// Everything configurable about the simulated hardware.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimParams {
     pub seed: u64,
+    /// The flat-ground kinematic model (used when `physics` is none).
     pub rover: RoverParams,
+    /// The rapier3d rover.
+    pub physics: Option<PhysicsParams>,
     pub imu: imu::ImuParams,
     pub drives: drives::DriveParams,
     /// The HDL-32E twin (off: no LiDAR data).
     pub lidar: Option<lidar::LidarParams>,
-    /// Sensor on base_link: x, y, z (m) and roll, pitch, yaw (rad).
+    /// Sensor on base_link (the chassis frame at axle height): x, y, z (m)
+    /// and roll, pitch, yaw (rad).
     pub lidar_mount: [f64; 6],
 }
 
@@ -42,10 +55,11 @@ impl Default for SimParams {
         SimParams {
             seed: 1,
             rover: RoverParams::default(),
+            physics: Some(PhysicsParams::default()),
             imu: imu::ImuParams::default(),
             drives: drives::DriveParams::default(),
             lidar: None,
-            lidar_mount: [0.0, 0.0, 0.5, 0.0, 0.0, 0.0],
+            lidar_mount: [0.0, 0.0, 0.35, 0.0, 0.0, 0.0],
         }
     }
 }
@@ -58,11 +72,33 @@ pub type TruthProbe = std::rc::Rc<std::cell::Cell<GroundTruth>>;
 pub struct SimHardware {
     t_ns: u64,
     truth: TruthProbe,
-    rover: rover::Rover,
+    motion: Motion,
     imu: imu::SimImu,
     drives: drives::SimDrives,
     lidar: LidarTwin,
-    mount: [f64; 6],
+    mount: lidar::SensorPose,
+}
+
+/// How the rover moves.
+enum Motion {
+    Kinematic(rover::Rover),
+    Physics(Box<physics::PhysicsRover>),
+}
+
+impl Motion {
+    fn state(&self, t_ns: u64) -> BodyState {
+        match self {
+            Motion::Kinematic(r) => r.state(t_ns),
+            Motion::Physics(r) => *r.state(),
+        }
+    }
+
+    fn step(&mut self, t_end_ns: u64, targets: &[f64; body::WHEELS]) {
+        match self {
+            Motion::Kinematic(r) => r.step(STEP_NS, targets),
+            Motion::Physics(r) => r.step(t_end_ns, targets),
+        }
+    }
 }
 
 /// The LiDAR twin, or none.
@@ -72,51 +108,69 @@ enum LidarTwin {
 }
 
 impl SimHardware {
-    pub fn new(p: &SimParams) -> Self {
-        let rover = rover::Rover::new(p.rover.clone());
-        SimHardware {
+    /// Simulated hardware on flat ground.
+    pub fn new(p: &SimParams) -> Result<Self, String> {
+        let flat = crate::world::World::build("flat", p.seed).map_err(|e| e.to_string())?;
+        Self::with_world(p, &flat)
+    }
+
+    /// Simulated hardware in `world`: the rover at the world's start, the
+    /// LiDAR twin (when `p.lidar` is set) casting rays against its mesh.
+    pub fn with_world(p: &SimParams, world: &crate::world::World) -> Result<Self, String> {
+        let motion = match &p.physics {
+            Some(pp) => Motion::Physics(Box::new(physics::PhysicsRover::new(
+                pp,
+                &world.mesh,
+                world.start,
+                STEP_NS as f64 * 1e-9,
+            )?)),
+            None => {
+                // base_link is at axle height on the kinematic rover too.
+                let [x, y, z, yaw] = world.start;
+                let lift = p.rover.wheel_radius_m;
+                Motion::Kinematic(rover::Rover::at(p.rover.clone(), [x, y, z + lift, yaw]))
+            }
+        };
+        let lidar = match &p.lidar {
+            Some(lp) => {
+                let w = std::sync::Arc::new(lidar::LidarWorld::new(&world.mesh)?);
+                LidarTwin::On(Box::new(lidar::SimLidar::new(
+                    lp.clone(),
+                    crate::hdl32e::Calibration::nominal(),
+                    w,
+                    p.seed,
+                )))
+            }
+            None => LidarTwin::Off,
+        };
+        let [mx, my, mz, roll, pitch, yaw] = p.lidar_mount;
+        let first = motion.state(0);
+        Ok(SimHardware {
             t_ns: 0,
-            truth: std::rc::Rc::new(std::cell::Cell::new(rover.truth(0))),
-            rover,
+            truth: std::rc::Rc::new(std::cell::Cell::new(first)),
+            motion,
             imu: imu::SimImu::new(p.imu.clone(), p.seed),
             drives: drives::SimDrives::new(p.drives.clone()),
-            lidar: LidarTwin::Off,
-            mount: p.lidar_mount,
-        }
+            lidar,
+            mount: lidar::SensorPose {
+                p: [mx, my, mz],
+                q: quat::from_ypr(yaw, pitch, roll),
+            },
+        })
     }
 
-    /// Simulated hardware with the LiDAR twin casting rays against `world`
-    /// (when `p.lidar` is set).
-    pub fn with_world(p: &SimParams, world: &crate::world::World) -> Result<Self, String> {
-        let mut hw = Self::new(p);
-        if let Some(lp) = &p.lidar {
-            let w = std::sync::Arc::new(lidar::LidarWorld::new(&world.mesh)?);
-            hw.lidar = LidarTwin::On(Box::new(lidar::SimLidar::new(
-                lp.clone(),
-                crate::hdl32e::Calibration::nominal(),
-                w,
-                p.seed,
-            )));
-        }
-        Ok(hw)
-    }
-
-    /// Sensor pose for a rover pose on flat ground.
-    fn sensor_pose(&self, g: &GroundTruth) -> lidar::SensorPose {
-        let [mx, my, mz, roll, pitch, yaw] = self.mount;
-        let (s, c) = (libm::sin(g.yaw), libm::cos(g.yaw));
+    /// The sensor's pose in the world for a rover state.
+    fn sensor_pose(&self, g: &BodyState) -> lidar::SensorPose {
         lidar::SensorPose {
-            p: [g.x + c * mx - s * my, g.y + s * mx + c * my, g.z + mz],
-            yaw: g.yaw + yaw,
-            pitch,
-            roll,
+            p: g.to_world(self.mount.p),
+            q: quat::mul(&g.orientation, &self.mount.q),
         }
     }
 
-    /// The true pose. For the ground-truth recording only: on-board tasks
+    /// The true state. For the ground-truth recording only: on-board tasks
     /// never see it.
     pub fn ground_truth(&self) -> GroundTruth {
-        self.rover.truth(self.t_ns)
+        self.motion.state(self.t_ns)
     }
 
     /// A handle that follows the true pose after every `advance_to`.
@@ -144,20 +198,21 @@ impl Hardware for SimHardware {
         while self.t_ns + STEP_NS <= now_ns {
             self.drives.tick(self.t_ns);
             let targets = self.drives.wheel_targets(self.t_ns);
-            let before = self.rover.truth(self.t_ns);
-            self.rover.step(STEP_NS, &targets);
+            let before = self.motion.state(self.t_ns);
+            self.motion.step(self.t_ns + STEP_NS, &targets);
+            let after = self.motion.state(self.t_ns + STEP_NS);
             if let LidarTwin::On(_) = self.lidar {
-                let after = self.rover.truth(self.t_ns + STEP_NS);
                 let (p0, p1) = (self.sensor_pose(&before), self.sensor_pose(&after));
                 if let LidarTwin::On(l) = &mut self.lidar {
                     l.advance(self.t_ns, self.t_ns + STEP_NS, &p0, &p1);
                 }
             }
             self.t_ns += STEP_NS;
-            self.drives.observe(&self.rover);
-            self.imu.maybe_sample(self.t_ns, &self.rover);
+            self.drives.observe(&after);
+            self.imu.observe(&after);
+            self.imu.maybe_sample(self.t_ns, &after);
         }
-        self.truth.set(self.rover.truth(self.t_ns));
+        self.truth.set(self.motion.state(self.t_ns));
     }
     fn lidar(&mut self) -> &mut dyn LidarSource {
         &mut self.lidar

@@ -6,8 +6,9 @@
 //! the skid factor (skid-steer rovers turn slower than a differential drive
 //! with the same geometric track).
 
-/// Wheel order: front left, front right, rear left, rear right (drive nodes 1..=4).
-pub const WHEELS: usize = 4;
+pub use super::body::WHEELS;
+use super::body::{BodyState, GRAVITY};
+use super::quat;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct RoverParams {
@@ -38,23 +39,12 @@ impl Default for RoverParams {
     }
 }
 
-/// The true state of the rover, as recorded on the ground-truth topic.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GroundTruth {
-    pub time_ns: u64,
-    pub x: f64,
-    pub y: f64,
-    pub z: f64,
-    pub yaw: f64,
-    pub speed: f64,
-    pub yaw_rate: f64,
-}
-
 #[derive(Clone, Debug)]
 pub struct Rover {
     p: RoverParams,
     x: f64,
     y: f64,
+    z: f64,
     yaw: f64,
     /// Body-frame forward speed and yaw rate.
     pub speed: f64,
@@ -68,11 +58,17 @@ pub struct Rover {
 
 impl Rover {
     pub fn new(p: RoverParams) -> Self {
+        Self::at(p, [0.0; 4])
+    }
+
+    /// A rover standing at x, y, z (ground height), heading yaw.
+    pub fn at(p: RoverParams, start: [f64; 4]) -> Self {
         Rover {
             p,
-            x: 0.0,
-            y: 0.0,
-            yaw: 0.0,
+            x: start[0],
+            y: start[1],
+            z: start[2],
+            yaw: start[3],
             speed: 0.0,
             yaw_rate: 0.0,
             accel: 0.0,
@@ -113,15 +109,18 @@ impl Rover {
         self.yaw = wrap_angle(self.yaw + self.yaw_rate * dt);
     }
 
-    pub fn truth(&self, time_ns: u64) -> GroundTruth {
-        GroundTruth {
+    /// The true state at `time_ns` (base_link on the ground plane).
+    pub fn state(&self, time_ns: u64) -> BodyState {
+        let (s, c) = (libm::sin(self.yaw), libm::cos(self.yaw));
+        BodyState {
             time_ns,
-            x: self.x,
-            y: self.y,
-            z: 0.0,
-            yaw: self.yaw,
-            speed: self.speed,
-            yaw_rate: self.yaw_rate,
+            position: [self.x, self.y, self.z],
+            orientation: quat::from_ypr(self.yaw, 0.0, 0.0),
+            velocity: [self.speed * c, self.speed * s, 0.0],
+            angular_velocity: [0.0, 0.0, self.yaw_rate],
+            specific_force: [self.accel, self.speed * self.yaw_rate, GRAVITY],
+            wheel_speed: self.wheel_speed,
+            wheel_angle: self.wheel_angle,
         }
     }
 }
@@ -148,10 +147,14 @@ mod tests {
         for _ in 0..5000 {
             r.step(1_000_000, &[2.0; 4]);
         }
-        let t = r.truth(0);
+        let t = r.state(0);
         assert!((r.speed - 0.38).abs() < 1e-6, "{}", r.speed);
-        assert!(t.y.abs() < 1e-12 && t.yaw == 0.0);
-        assert!(t.x > 1.6 && t.x < 1.9, "{}", t.x);
+        assert!(t.position[1].abs() < 1e-12 && t.yaw() == 0.0);
+        assert!(
+            t.position[0] > 1.6 && t.position[0] < 1.9,
+            "{:?}",
+            t.position
+        );
     }
 
     #[test]

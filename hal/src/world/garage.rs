@@ -19,6 +19,8 @@ pub struct Garage {
     pub mesh: Mesh,
     pub floor_area_m2: f64,
     pub start: [f64; 4],
+    /// From the start up both ramps to the top level (for scripted drives).
+    pub route: Vec<[f64; 3]>,
 }
 
 /// The ramp from level `l` to `l + 1` runs along +x on alternate sides.
@@ -115,5 +117,30 @@ pub fn generate() -> Garage {
         mesh: m,
         floor_area_m2: floor,
         start: [2.5, 0.5 * SIZE_Y as f64, 0.0, 0.0],
+        route: route(),
     }
+}
+
+/// Along level 0 to the first ramp, up it, round the level-1 pillars to the
+/// second ramp and up to level 2: clear of walls and pillars by 1 m or more.
+fn route() -> Vec<[f64; 3]> {
+    let h = LEVEL_HEIGHT as f64;
+    let (r0, r1) = (ramp_y(0), ramp_y(1));
+    let y0 = 0.5 * (r0.0 + r0.1) as f64;
+    let y1 = 0.5 * (r1.0 + r1.1) as f64;
+    let (xa, xb) = (RAMP_X0 as f64, (RAMP_X0 + RAMP_LENGTH) as f64);
+    vec![
+        [4.0, 10.0, 0.0],
+        [3.5, y0 - 2.0, 0.0],
+        [xa - 0.5, y0, 0.0],
+        [xb, y0, h],
+        [xb + 2.5, y0 - 1.5, h],
+        [xb + 3.0, 10.0, h],
+        [xb, 10.0, h],
+        [3.5, 10.0, h],
+        [2.5, y1 + 2.5, h],
+        [xa - 0.5, y1, h],
+        [xb, y1, 2.0 * h],
+        [xb + 3.0, y1, 2.0 * h],
+    ]
 }

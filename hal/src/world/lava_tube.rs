@@ -225,6 +225,9 @@ pub struct LavaTube {
     pub floor_area_m2: f64,
     /// x, y, z, yaw of the rover's start: past the muddy entrance, facing in.
     pub start: [f64; 4],
+    /// Floor points every 2 m from the start to the end of the tube, steering
+    /// clear of the boulders (for scripted drives).
+    pub route: Vec<[f64; 3]>,
 }
 
 pub fn generate(seed: u64, p: &LavaTubeParams) -> LavaTube {
@@ -262,6 +265,7 @@ pub fn generate(seed: u64, p: &LavaTubeParams) -> LavaTube {
     // Boulders on the floor, away from the start, the squeeze and the junction.
     let n = (p.length_m / 10.0 * p.boulders_per_10m) as i64;
     let sq = p.squeeze_at * p.length_m;
+    let mut boulders = Vec::new();
     for b in 0..n {
         let s = p.entrance_length_m
             + 10.0
@@ -276,6 +280,7 @@ pub fn generate(seed: u64, p: &LavaTubeParams) -> LavaTube {
         let size = 0.1 + 0.5 * uniform(seed ^ 0xF2, b);
         let lateral = (uniform(seed ^ 0xF3, b) - 0.5) * 1.2 * st.radius;
         let (sh, ch) = (libm::sin(st.heading), libm::cos(st.heading));
+        boulders.push([st.c[0] - lateral * sh, st.c[1] + lateral * ch, size]);
         add_rock(
             &mut mesh,
             st.c[0] - lateral * sh,
@@ -291,5 +296,36 @@ pub fn generate(seed: u64, p: &LavaTubeParams) -> LavaTube {
         mesh,
         floor_area_m2: floor,
         start: [s0.c[0], s0.c[1], floor_z(s0), s0.heading],
+        route: route(&main.stations[k0.min(main.stations.len() - 1)..], &boulders),
     }
+}
+
+/// Every fourth station's floor point, moved sideways (within the middle
+/// half of the floor) to where it is farthest from the nearest boulder.
+fn route(stations: &[Station], boulders: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let clearance = |x: f64, y: f64| {
+        boulders
+            .iter()
+            .map(|b| (b[0] - x).hypot(b[1] - y) - 0.6 * b[2])
+            .fold(f64::INFINITY, f64::min)
+    };
+    stations
+        .iter()
+        .step_by(4)
+        .skip(1)
+        .map(|st| {
+            let (sh, ch) = (libm::sin(st.heading), libm::cos(st.heading));
+            let mut best = (f64::NEG_INFINITY, st.c[0], st.c[1]);
+            for k in -4..=4 {
+                // Prefer the middle: a small penalty for each step aside.
+                let lateral = k as f64 * 0.1 * st.radius;
+                let (x, y) = (st.c[0] - lateral * sh, st.c[1] + lateral * ch);
+                let score = clearance(x, y).min(2.0) - 0.05 * (k as f64).abs();
+                if score > best.0 {
+                    best = (score, x, y);
+                }
+            }
+            [best.1, best.2, floor_z(st)]
+        })
+        .collect()
 }

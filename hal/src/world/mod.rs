@@ -26,6 +26,9 @@ pub struct World {
     pub floor_area_m2: f64,
     /// x, y, z (floor height), yaw of the rover's start.
     pub start: [f64; 4],
+    /// A drivable route of floor points from the start (empty when the
+    /// world does not know one): what scripted drives follow.
+    pub route: Vec<[f64; 3]>,
 }
 
 /// Steepest floor a rover counts as reachable in a mesh file.
@@ -43,6 +46,7 @@ impl World {
                     mesh: t.mesh,
                     floor_area_m2: t.floor_area_m2,
                     start: t.start,
+                    route: t.route,
                 })
             }
             "garage" => {
@@ -52,6 +56,7 @@ impl World {
                     mesh: g.mesh,
                     floor_area_m2: g.floor_area_m2,
                     start: g.start,
+                    route: g.route,
                 })
             }
             "flat" => {
@@ -67,6 +72,7 @@ impl World {
                     mesh: m,
                     floor_area_m2: 200.0 * 200.0,
                     start: [0.0; 4],
+                    route: Vec::new(),
                 })
             }
             path if Path::new(path)
@@ -118,6 +124,7 @@ impl World {
             mesh,
             floor_area_m2: area,
             start,
+            route: Vec::new(),
         }
     }
 }

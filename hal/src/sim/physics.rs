@@ -1,0 +1,479 @@
+//! The rover in rapier3d: an Asguard-like chassis on four leg-wheels (each a
+//! star of legs) on motorised revolute joints, driving on the world mesh.
+//!
+//! Each drive follows an acceleration-limited velocity profile with a torque
+//! limit, as a CiA 402 drive in profile-velocity mode does: the joint motor
+//! applies at most `motor_torque_nm`, so a wheel pressed against a boulder
+//! stalls instead of spinning through it. Like a real drive's PI velocity
+//! loop, it also tracks the integral of the profile (the position), so a
+//! wheel held at zero under load stands still instead of creeping.
+//! Friction comes from the world's surfaces (mud is slippery).
+//!
+//! rapier is built with `enhanced-determinism`: the same world, start and
+//! commands give the same motion, bit for bit, on any machine.
+
+use rapier3d::math::{Pose, Rotation, Vector};
+use rapier3d::prelude::*;
+
+use super::body::{BodyState, GRAVITY, WHEELS};
+use super::quat::{self, Quat};
+use crate::world::{Mesh, Surface};
+
+/// The simulated rover's build. Defaults: an Asguard-like rover (DFKI's
+/// Asguard series as published: about 1 m long and 0.5 m wide, four
+/// five-legged wheels of about 0.2 m driven one motor each), scaled to the
+/// V4 with its LiDAR, computer and batteries. These are estimates from the
+/// published descriptions and photographs, not measurements of the real
+/// rover; every one can be set in `[sim.rover]`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PhysicsParams {
+    /// Chassis mass including payload, kg.
+    pub chassis_mass_kg: f64,
+    /// Chassis box: length, width, height, m.
+    pub chassis_size_m: [f64; 3],
+    /// Front to rear axle, m.
+    pub wheelbase_m: f64,
+    /// Left to right wheel centre, m.
+    pub track_width_m: f64,
+    /// Hub to the outer edge of a leg tip, m.
+    pub wheel_radius_m: f64,
+    /// Legs per wheel (0: a plain round wheel).
+    pub legs_per_wheel: u32,
+    /// Radius of a leg (its rounded tip), m.
+    pub leg_radius_m: f64,
+    /// Mass of one leg-wheel, kg.
+    pub wheel_mass_kg: f64,
+    /// Peak torque of one drive at the wheel (after the gearbox), N m.
+    pub motor_torque_nm: f64,
+    /// Speed and acceleration limits of the drives' profile, rad/s and rad/s^2.
+    pub max_wheel_speed: f64,
+    pub max_wheel_accel: f64,
+    /// Coulomb friction coefficients of the legs on each surface.
+    pub friction_rock: f64,
+    pub friction_mud: f64,
+    pub friction_concrete: f64,
+    /// Velocity-constraint solver iterations per step.
+    pub solver_iterations: u32,
+}
+
+impl Default for PhysicsParams {
+    fn default() -> Self {
+        PhysicsParams {
+            chassis_mass_kg: 14.0,
+            chassis_size_m: [0.62, 0.32, 0.14],
+            wheelbase_m: 0.52,
+            track_width_m: 0.52,
+            wheel_radius_m: 0.19,
+            legs_per_wheel: 5,
+            leg_radius_m: 0.025,
+            wheel_mass_kg: 0.8,
+            motor_torque_nm: 15.0,
+            max_wheel_speed: 5.0,
+            max_wheel_accel: 10.0,
+            friction_rock: 0.8,
+            friction_mud: 0.35,
+            friction_concrete: 0.9,
+            solver_iterations: 4,
+        }
+    }
+}
+
+impl PhysicsParams {
+    /// Refuse builds the solver cannot simulate sensibly.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("chassis_mass_kg", self.chassis_mass_kg),
+            ("wheelbase_m", self.wheelbase_m),
+            ("track_width_m", self.track_width_m),
+            ("wheel_radius_m", self.wheel_radius_m),
+            ("leg_radius_m", self.leg_radius_m),
+            ("wheel_mass_kg", self.wheel_mass_kg),
+            ("motor_torque_nm", self.motor_torque_nm),
+            ("max_wheel_speed", self.max_wheel_speed),
+            ("max_wheel_accel", self.max_wheel_accel),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} must be a positive number, not {v}"));
+            }
+        }
+        if self
+            .chassis_size_m
+            .iter()
+            .any(|v| !(v.is_finite() && *v > 0.0))
+        {
+            return Err("chassis_size_m must be three positive lengths".into());
+        }
+        if self.leg_radius_m * 2.0 >= self.wheel_radius_m {
+            return Err("leg_radius_m must be under half of wheel_radius_m".into());
+        }
+        if self.track_width_m <= self.chassis_size_m[1] + 2.0 * self.leg_radius_m {
+            return Err("the wheels would cut into the chassis: widen track_width_m".into());
+        }
+        for (name, f) in [
+            ("friction_rock", self.friction_rock),
+            ("friction_mud", self.friction_mud),
+            ("friction_concrete", self.friction_concrete),
+        ] {
+            if !(f.is_finite() && (0.0..=3.0).contains(&f)) {
+                return Err(format!("{name} must be within 0..3, not {f}"));
+            }
+        }
+        if !(1..=32).contains(&self.solver_iterations) {
+            return Err("solver_iterations must be within 1..32".into());
+        }
+        Ok(())
+    }
+
+    fn friction(&self, s: Surface) -> f64 {
+        match s {
+            Surface::Rock | Surface::Boulder => self.friction_rock,
+            Surface::Mud => self.friction_mud,
+            Surface::Concrete => self.friction_concrete,
+        }
+    }
+
+    /// Hub of wheel `w` in base_link (FL, FR, RL, RR).
+    fn hub(&self, w: usize) -> [f64; 3] {
+        let x = if w < 2 { 0.5 } else { -0.5 } * self.wheelbase_m;
+        let y = if w.is_multiple_of(2) { 0.5 } else { -0.5 } * self.track_width_m;
+        [x, y, 0.0]
+    }
+}
+
+/// The rover and the world's ground in one rapier world.
+pub struct PhysicsRover {
+    p: PhysicsParams,
+    world: PhysicsWorld,
+    chassis: RigidBodyHandle,
+    wheels: [RigidBodyHandle; WHEELS],
+    joints: [ImpulseJointHandle; WHEELS],
+    /// The drives' profile speeds, rad/s, and their integrals, rad.
+    profile: [f64; WHEELS],
+    profile_angle: [f64; WHEELS],
+    state: BodyState,
+    /// Non-finite states rapier quarantined (the rover would vanish).
+    pub quarantined: u64,
+}
+
+fn v3(a: [f64; 3]) -> Vector {
+    Vector::new(a[0] as f32, a[1] as f32, a[2] as f32)
+}
+
+fn q_from(r: &Rotation) -> Quat {
+    [r.w as f64, r.x as f64, r.y as f64, r.z as f64]
+}
+
+fn rot(q: &Quat) -> Rotation {
+    Rotation::from_xyzw(q[1] as f32, q[2] as f32, q[3] as f32, q[0] as f32).normalize()
+}
+
+impl PhysicsRover {
+    /// The rover standing on `mesh` at `start` (x, y, ground z, yaw), its
+    /// legs just clear of the ground. `dt_s` is the physics step.
+    pub fn new(p: &PhysicsParams, mesh: &Mesh, start: [f64; 4], dt_s: f64) -> Result<Self, String> {
+        p.validate()?;
+        let mut world = PhysicsWorld::new();
+        world.gravity = Vector::new(0.0, 0.0, -GRAVITY as f32);
+        world.integration_parameters.dt = dt_s as f32;
+        world.integration_parameters.num_solver_iterations = p.solver_iterations as usize;
+        add_ground(&mut world, p, mesh)?;
+
+        let orientation = quat::from_ypr(start[3], 0.0, 0.0);
+        let base = [start[0], start[1], start[2] + p.wheel_radius_m + 0.01];
+        let [l, w, h] = p.chassis_size_m;
+        let chassis = world.insert_body(
+            RigidBodyBuilder::dynamic()
+                .pose(Pose::from_parts(v3(base), rot(&orientation)))
+                .can_sleep(false),
+        );
+        world.insert_collider(
+            ColliderBuilder::cuboid(0.5 * l as f32, 0.5 * w as f32, 0.5 * h as f32)
+                .mass(p.chassis_mass_kg as f32)
+                .friction(0.5),
+            Some(chassis),
+        );
+        let mut wheels = [chassis; WHEELS];
+        let mut joints = Vec::with_capacity(WHEELS);
+        for (i, wheel) in wheels.iter_mut().enumerate() {
+            let hub = p.hub(i);
+            let centre = {
+                let r = quat::rotate(&orientation, hub);
+                [base[0] + r[0], base[1] + r[1], base[2] + r[2]]
+            };
+            // Diagonal wheels in phase, the others half a leg apart: the
+            // chassis rocks less than with all four legs striking together.
+            let phase = if i == 0 || i == 3 { 0.0 } else { 0.5 };
+            *wheel = world.insert_body(
+                RigidBodyBuilder::dynamic()
+                    .pose(Pose::from_parts(v3(centre), rot(&orientation)))
+                    .can_sleep(false),
+            );
+            world.insert_collider(wheel_collider(p, phase)?, Some(*wheel));
+            let joint = RevoluteJointBuilder::new(Vector::Y)
+                .local_anchor1(v3(hub))
+                .local_anchor2(Vector::ZERO)
+                .motor_model(MotorModel::ForceBased)
+                .motor_velocity(0.0, motor_damping(p))
+                .motor_max_force(p.motor_torque_nm as f32)
+                .contacts_enabled(false);
+            joints.push(world.insert_impulse_joint(chassis, *wheel, joint));
+        }
+        let joints: [ImpulseJointHandle; WHEELS] = joints
+            .try_into()
+            .map_err(|_| "four wheel joints".to_string())?;
+        let mut rover = PhysicsRover {
+            p: p.clone(),
+            world,
+            chassis,
+            wheels,
+            joints,
+            profile: [0.0; WHEELS],
+            profile_angle: [0.0; WHEELS],
+            state: BodyState::default(),
+            quarantined: 0,
+        };
+        rover.state = rover.read_state(0, None, dt_s);
+        Ok(rover)
+    }
+
+    pub fn params(&self) -> &PhysicsParams {
+        &self.p
+    }
+
+    /// The state after the last step.
+    pub fn state(&self) -> &BodyState {
+        &self.state
+    }
+
+    /// Advance one physics step ending at `t_ns` with the drives aiming at
+    /// `targets` (rad/s at the wheel). A drive that is not enabled gets 0 and
+    /// holds its wheel (it brakes), as CiA 402 drives do in quick stop.
+    pub fn step(&mut self, t_ns: u64, targets: &[f64; WHEELS]) {
+        let dt = self.world.integration_parameters.dt as f64;
+        let max_dv = self.p.max_wheel_accel * dt;
+        for (w, target) in targets.iter().enumerate() {
+            let target = target.clamp(-self.p.max_wheel_speed, self.p.max_wheel_speed);
+            let target = if target.is_finite() { target } else { 0.0 };
+            self.profile[w] += (target - self.profile[w]).clamp(-max_dv, max_dv);
+            // Position loop around the velocity loop; the following error is
+            // bounded, as drives bound it, so a stalled wheel does not wind up.
+            let angle = self.state.wheel_angle[w];
+            self.profile_angle[w] = (self.profile_angle[w] + self.profile[w] * dt)
+                .clamp(angle - MAX_FOLLOWING_ERROR, angle + MAX_FOLLOWING_ERROR);
+            let command = self.profile[w] + POSITION_GAIN * (self.profile_angle[w] - angle);
+            if let Some(j) = self.world.impulse_joints.get_mut(self.joints[w], true) {
+                if let Some(r) = j.data.as_revolute_mut() {
+                    r.set_motor_velocity(command as f32, motor_damping(&self.p));
+                }
+            }
+        }
+        let before = self.state;
+        self.world.step();
+        if !self.world.quarantine().is_empty() {
+            self.quarantined += 1;
+        }
+        self.state = self.read_state(t_ns, Some(&before), dt);
+    }
+
+    fn read_state(&self, t_ns: u64, before: Option<&BodyState>, dt: f64) -> BodyState {
+        let body = &self.world.bodies[self.chassis];
+        let q = quat::normalise(&q_from(body.rotation()));
+        let t = body.translation();
+        let v = body.linvel();
+        let velocity = [v.x as f64, v.y as f64, v.z as f64];
+        let w = body.angvel();
+        let w_world = [w.x as f64, w.y as f64, w.z as f64];
+        // Acceleration from the velocity change over the step; gravity is
+        // subtracted as an accelerometer does.
+        let acc = match before {
+            Some(b) => [0, 1, 2].map(|k| (velocity[k] - b.velocity[k]) / dt),
+            None => [0.0; 3],
+        };
+        let f_world = [acc[0], acc[1], acc[2] + GRAVITY];
+        let axle = quat::rotate(&q, [0.0, 1.0, 0.0]);
+        let mut wheel_speed = [0.0; WHEELS];
+        let mut wheel_angle = before.map_or([0.0; WHEELS], |b| b.wheel_angle);
+        for (i, h) in self.wheels.iter().enumerate() {
+            let ww = self.world.bodies[*h].angvel();
+            let rel = [
+                ww.x as f64 - w_world[0],
+                ww.y as f64 - w_world[1],
+                ww.z as f64 - w_world[2],
+            ];
+            wheel_speed[i] = rel[0] * axle[0] + rel[1] * axle[1] + rel[2] * axle[2];
+            if before.is_some() {
+                wheel_angle[i] += wheel_speed[i] * dt;
+            }
+        }
+        BodyState {
+            time_ns: t_ns,
+            position: [t.x as f64, t.y as f64, t.z as f64],
+            orientation: q,
+            velocity,
+            angular_velocity: quat::rotate_inv(&q, w_world),
+            specific_force: quat::rotate_inv(&q, f_world),
+            wheel_speed,
+            wheel_angle,
+        }
+    }
+}
+
+/// Gain of the drives' position loop, 1/s.
+const POSITION_GAIN: f64 = 20.0;
+/// Largest following error the drives keep, rad.
+const MAX_FOLLOWING_ERROR: f64 = 0.3;
+
+/// Damping of the drives' velocity loop: the full torque for an error of
+/// 0.2 rad/s, so the loop is stiff but the torque limit still governs.
+fn motor_damping(p: &PhysicsParams) -> f32 {
+    (p.motor_torque_nm / 0.2) as f32
+}
+
+/// One leg-wheel: `legs` capsules from the hub in the wheel's x-z plane
+/// (the axle is y), or a round wheel when `legs` is 0.
+fn wheel_collider(p: &PhysicsParams, phase: f64) -> Result<ColliderBuilder, String> {
+    let r = p.wheel_radius_m;
+    let lr = p.leg_radius_m;
+    let builder = if p.legs_per_wheel == 0 {
+        // Cylinders lie along their local y: the axle.
+        ColliderBuilder::cylinder(lr as f32, r as f32)
+    } else {
+        let n = p.legs_per_wheel;
+        let step = 2.0 * core::f64::consts::PI / n as f64;
+        let shapes = (0..n)
+            .map(|k| {
+                let a = (k as f64 + phase) * step;
+                let tip = [(r - lr) * libm::cos(a), 0.0, (r - lr) * libm::sin(a)];
+                (
+                    Pose::identity(),
+                    SharedShape::capsule(Vector::ZERO, v3(tip), lr as f32),
+                )
+            })
+            .collect();
+        ColliderBuilder::compound(shapes)
+    };
+    Ok(builder
+        .mass(p.wheel_mass_kg as f32)
+        .friction(1.0)
+        // The ground's coefficient alone decides the grip.
+        .friction_combine_rule(CoefficientCombineRule::Min))
+}
+
+/// The world's triangles as fixed trimesh colliders, one per surface so each
+/// has its friction.
+fn add_ground(world: &mut PhysicsWorld, p: &PhysicsParams, mesh: &Mesh) -> Result<(), String> {
+    let ground = world.insert_body(RigidBodyBuilder::fixed());
+    let kinds = [
+        Surface::Rock,
+        Surface::Boulder,
+        Surface::Mud,
+        Surface::Concrete,
+    ];
+    for kind in kinds {
+        let mut map = vec![u32::MAX; mesh.vertices.len()];
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::new();
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            if mesh.surfaces.get(t).copied().unwrap_or_default() != kind {
+                continue;
+            }
+            let mut out = [0u32; 3];
+            for (k, &v) in tri.iter().enumerate() {
+                let slot = &mut map[v as usize];
+                if *slot == u32::MAX {
+                    *slot = vertices.len() as u32;
+                    let a = mesh.vertices[v as usize];
+                    vertices.push(Vector::new(a[0], a[1], a[2]));
+                }
+                out[k] = *slot;
+            }
+            triangles.push(out);
+        }
+        if triangles.is_empty() {
+            continue;
+        }
+        let collider = ColliderBuilder::trimesh(vertices, triangles)
+            .map_err(|e| format!("the world mesh cannot be driven on: {e:?}"))?
+            .friction(p.friction(kind) as f32)
+            .friction_combine_rule(CoefficientCombineRule::Min);
+        world.insert_collider(collider, Some(ground));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::World;
+
+    fn drive(world: &World, targets: [f64; WHEELS], seconds: f64) -> (BodyState, BodyState) {
+        let mut r = PhysicsRover::new(&PhysicsParams::default(), &world.mesh, world.start, 0.001)
+            .expect("rover");
+        // Settle on the ground first.
+        for k in 0..500u64 {
+            r.step(k * 1_000_000, &[0.0; WHEELS]);
+        }
+        let settled = *r.state();
+        let n = (seconds * 1000.0) as u64;
+        for k in 0..n {
+            r.step((500 + k) * 1_000_000, &targets);
+        }
+        (settled, *r.state())
+    }
+
+    #[test]
+    fn the_rover_stands_on_flat_ground() {
+        let w = World::build("flat", 0).expect("flat");
+        let (settled, _) = drive(&w, [0.0; WHEELS], 0.5);
+        let p = PhysicsParams::default();
+        // Resting on its legs: the hub is between the leg length and its
+        // projection at the worst phase (cos 36 deg for five legs).
+        let z = settled.position[2];
+        assert!(
+            z > p.wheel_radius_m * 0.75 && z < p.wheel_radius_m + 0.01,
+            "{z}"
+        );
+        let (_, pitch, roll) = settled.ypr();
+        assert!(pitch.abs() < 0.1 && roll.abs() < 0.05, "{pitch} {roll}");
+        // The accelerometer reads +g up at rest.
+        assert!(
+            (settled.specific_force[2] - GRAVITY).abs() < 0.5,
+            "{:?}",
+            settled.specific_force
+        );
+    }
+
+    #[test]
+    fn equal_wheel_speeds_drive_forward_and_opposite_ones_turn() {
+        let w = World::build("flat", 0).expect("flat");
+        let (a, b) = drive(&w, [2.0; WHEELS], 3.0);
+        let dx = b.position[0] - a.position[0];
+        let dy = b.position[1] - a.position[1];
+        // About 0.38 m/s at the rim (less on legs that slip).
+        assert!(dx > 0.6 && dx < 1.3, "{dx}");
+        assert!(dy.abs() < 0.15 * dx, "{dy}");
+        assert!(
+            b.wheel_speed.iter().all(|s| (s - 2.0).abs() < 0.3),
+            "{:?}",
+            b.wheel_speed
+        );
+        assert!(
+            b.wheel_angle.iter().all(|a| *a > 4.0),
+            "{:?}",
+            b.wheel_angle
+        );
+        let (a, b) = drive(&w, [-1.5, 1.5, -1.5, 1.5], 2.0);
+        let turned = super::super::rover::wrap_angle(b.yaw() - a.yaw());
+        assert!(turned > 0.3, "{turned}");
+    }
+
+    #[test]
+    fn the_same_inputs_give_the_same_motion_bit_for_bit() {
+        let w = World::build("lava-tube", 1).expect("tube");
+        let (_, a) = drive(&w, [2.0, 2.5, 2.0, 2.5], 1.0);
+        let (_, b) = drive(&w, [2.0, 2.5, 2.0, 2.5], 1.0);
+        assert_eq!(a, b);
+    }
+}
