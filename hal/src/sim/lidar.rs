@@ -141,16 +141,8 @@ impl SensorPose {
 
     /// Rotate a sensor-frame vector into the world.
     pub fn rotate(&self, v: [f64; 3]) -> [f64; 3] {
-        mul(&self.matrix(), v)
+        quat::mat_mul(&self.matrix(), v)
     }
-}
-
-fn mul(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    [
-        m[0][0] * v[0] + m[0][1] * v[1] + m[0][2] * v[2],
-        m[1][0] * v[0] + m[1][1] * v[1] + m[1][2] * v[2],
-        m[2][0] * v[0] + m[2][1] * v[1] + m[2][2] * v[2],
-    ]
 }
 
 fn intensity(s: Surface, cos: f64) -> u8 {
@@ -259,7 +251,7 @@ impl SimLidar {
                 let (so, co) = self.offset[l];
                 let (sa, ca) = (s0 * co + c0 * so, c0 * co - s0 * so);
                 let (ce, se) = self.elevation[l];
-                let dir = mul(&r, [ce * ca, -ce * sa, se]);
+                let dir = quat::mat_mul(&r, [ce * ca, -ce * sa, se]);
                 if let Some((d, cos, s)) = self.world.cast(origin, dir, self.p.max_range_m) {
                     let noisy = d + self.noise.gaussian() * self.p.range_noise_m;
                     if noisy > 0.0 {
