@@ -22,6 +22,15 @@ pub mod world;
 pub mod xbus;
 pub mod xsens_config;
 
+/// A file's extension in lower case ("" when it has none): file formats
+/// are chosen by it.
+pub fn extension_of(path: &std::path::Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
+}
+
 use thiserror::Error;
 
 pub use can::CanFrame;

@@ -109,11 +109,7 @@ impl Calibration {
             path: path.display().to_string(),
             source,
         })?;
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
+        let ext = crate::extension_of(path);
         let r = match ext.as_str() {
             "xml" => Self::from_veloview_xml(&text),
             "yaml" | "yml" => Self::from_ros_yaml(&text),

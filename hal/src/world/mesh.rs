@@ -193,11 +193,7 @@ impl Mesh {
             path: path.display().to_string(),
             source,
         })?;
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
+        let ext = crate::extension_of(path);
         let mesh = match ext.as_str() {
             "ply" => super::ply::parse(&bytes),
             "obj" => super::obj::parse(&bytes),

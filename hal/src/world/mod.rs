@@ -75,12 +75,8 @@ impl World {
                     route: Vec::new(),
                 })
             }
-            path if Path::new(path)
-                .extension()
-                .and_then(|e| e.to_str())
-                .is_some_and(|e| {
-                    ["ply", "obj", "stl"].contains(&e.to_ascii_lowercase().as_str())
-                }) =>
+            path if ["ply", "obj", "stl"]
+                .contains(&crate::extension_of(Path::new(path)).as_str()) =>
             {
                 let (mesh, _) = Mesh::load(Path::new(path))?;
                 Ok(Self::from_mesh(path, mesh))
