@@ -5,6 +5,7 @@ use speleo_hal::canopen::supervisor::{DrivesState, StopReasons};
 use speleo_hal::xbus::XbusCounters;
 use speleo_hal::xsens_config::ConfigState;
 use speleo_hal::{CanFrame, Device, InputSink};
+use speleo_odometry::{OdometryCounters, PoseHistory};
 use speleo_scheduler::mailbox::{Fifo, Latest, Ring};
 use speleo_scheduler::Mode;
 
@@ -29,6 +30,15 @@ pub struct Cloud {
     pub start_us: f64,
     /// Point times are seconds after the first firing.
     pub points: Vec<speleo_hal::hdl32e::Point>,
+}
+
+/// The SLAM estimate of the rover's pose in the map frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SlamPose {
+    pub position: [f64; 3],
+    /// (w, x, y, z).
+    pub orientation: [f64; 4],
+    pub keyframes: u32,
 }
 
 /// What the LiDAR driver counted.
@@ -169,6 +179,11 @@ impl InputSink for RawFrame {
 pub const RAW_ARENA_BYTES: usize = 256 * 1024;
 pub const RAW_ENTRIES: usize = 2048;
 
+/// Odometry poses kept for deskewing: 2.56 s at 100 Hz.
+pub const ODOM_HISTORY_LEN: usize = 256;
+/// How far past its newest pose the odometry history extrapolates, ns.
+pub const ODOM_HISTORY_EXTRAPOLATION_NS: u64 = 5_000_000;
+
 pub struct Bus {
     pub raw: RawFrame,
     pub imu: Ring<ImuSample, 32>,
@@ -178,6 +193,12 @@ pub struct Bus {
     /// Why the drive output holds the wheels at zero, every frame.
     pub drive_stop: Latest<StopReasons>,
     pub odom: Latest<OdomPose>,
+    pub slam: Latest<SlamPose>,
+    /// The odometry poses of the last frames, stamped with the frame time,
+    /// for deskewing LiDAR revolutions. Written by the odometry task only.
+    pub odom_history: PoseHistory,
+    /// What the odometry counted (slip, glitches, bad IMU samples).
+    pub odom_counters: OdometryCounters,
     pub command: Latest<WheelCommand>,
     /// Frames to put on the CAN bus at the start of the next frame.
     pub can_tx: Fifo<CanFrame, 32>,
@@ -203,6 +224,12 @@ impl Bus {
             drives: Latest::new(),
             drive_stop: Latest::new(),
             odom: Latest::new(),
+            slam: Latest::new(),
+            odom_history: PoseHistory::with_capacity(
+                ODOM_HISTORY_LEN,
+                ODOM_HISTORY_EXTRAPOLATION_NS,
+            ),
+            odom_counters: OdometryCounters::default(),
             command: Latest::new(),
             can_tx: Fifo::new(),
             imu_tx: Fifo::new(),

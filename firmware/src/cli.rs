@@ -46,6 +46,46 @@ pub enum Command {
     /// Worlds of the simulation.
     #[command(subcommand)]
     World(WorldCommand),
+    /// Optimise a g2o pose graph (2D or 3D) with the SLAM back end; prints
+    /// g2o's chi2 and the SE-Sync objective before and after.
+    G2o(G2oArgs),
+    /// Register two point clouds (PLY) with GICP; prints the 4x4 transform
+    /// (target <- source), iterations, fitness and time.
+    Register(RegisterArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct RegisterArgs {
+    #[arg(value_name = "SOURCE.ply")]
+    pub source: PathBuf,
+    #[arg(value_name = "TARGET.ply")]
+    pub target: PathBuf,
+    /// Initial transform: 16 numbers, a row-major 4x4 matrix.
+    #[arg(long, value_name = "FILE")]
+    pub init: Option<PathBuf>,
+    /// Voxel size of the downsampling, m.
+    #[arg(long, default_value_t = 0.25)]
+    pub voxel: f64,
+    /// Write the figures as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
+}
+
+#[derive(Args, Debug)]
+pub struct G2oArgs {
+    #[arg(value_name = "FILE.g2o")]
+    pub file: PathBuf,
+    /// Write the optimised graph here.
+    #[arg(long, value_name = "OPT.g2o")]
+    pub out: Option<PathBuf>,
+    /// First estimate: file, chordal or spanning-tree.
+    #[arg(long, default_value = "chordal")]
+    pub init: String,
+    #[arg(long, default_value_t = 100)]
+    pub max_iterations: u32,
+    /// Write the figures as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -205,6 +245,8 @@ pub fn main() -> ExitCode {
         Command::Pcap2mcap(a) => modes::pcap2mcap(a),
         Command::Decode(d) => modes::decode(d),
         Command::World(WorldCommand::Export(a)) => modes::world_export(a),
+        Command::G2o(a) => modes::g2o(a),
+        Command::Register(a) => modes::register(a),
     };
     match result {
         Ok(code) => code,

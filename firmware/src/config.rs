@@ -37,6 +37,7 @@ pub struct Config {
     pub rover: RoverConfig,
     pub control: ControlConfig,
     pub lidar: LidarConfig,
+    pub slam: SlamConfig,
     pub health: HealthConfig,
     pub record: RecordConfig,
     pub devices: DevicesConfig,
@@ -205,6 +206,70 @@ impl Default for LidarConfig {
             max_points_per_frame: 140_000,
             mount_xyz: [0.0, 0.0, 0.35],
             mount_rpy_deg: [0.0, 0.0, 0.0],
+        }
+    }
+}
+
+/// Graph SLAM (`[slam]`); see components/slam/README.md for each setting.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SlamConfig {
+    /// Run SLAM when a LiDAR is present.
+    pub enabled: bool,
+    pub keyframe_capacity: usize,
+    pub active_keyframes: usize,
+    pub keyframe_distance_m: f64,
+    pub keyframe_angle_deg: f64,
+    pub voxel_m: f64,
+    pub max_scan_points: usize,
+    pub neighbors: usize,
+    pub loop_radius_m: f64,
+    pub loop_min_gap: usize,
+    pub loop_max_fitness_m: f64,
+    pub inclination_sigma_deg: f64,
+    pub estimate_bias: bool,
+    pub bias_prior_deg: f64,
+}
+
+impl Default for SlamConfig {
+    fn default() -> Self {
+        let p = speleo_slam::graph_slam::SlamParams::default();
+        SlamConfig {
+            enabled: true,
+            keyframe_capacity: p.keyframe_capacity,
+            active_keyframes: p.active_keyframes,
+            keyframe_distance_m: p.keyframe_distance_m,
+            keyframe_angle_deg: p.keyframe_angle_deg,
+            voxel_m: p.voxel_m,
+            max_scan_points: p.max_scan_points,
+            neighbors: p.neighbors,
+            loop_radius_m: p.loop_radius_m,
+            loop_min_gap: p.loop_min_gap,
+            loop_max_fitness_m: p.loop_max_fitness_m,
+            inclination_sigma_deg: p.inclination_sigma_deg,
+            estimate_bias: p.estimate_bias,
+            bias_prior_deg: p.bias_prior_deg,
+        }
+    }
+}
+
+impl SlamConfig {
+    pub fn params(&self) -> speleo_slam::graph_slam::SlamParams {
+        speleo_slam::graph_slam::SlamParams {
+            keyframe_capacity: self.keyframe_capacity,
+            active_keyframes: self.active_keyframes,
+            keyframe_distance_m: self.keyframe_distance_m,
+            keyframe_angle_deg: self.keyframe_angle_deg,
+            voxel_m: self.voxel_m,
+            max_scan_points: self.max_scan_points,
+            neighbors: self.neighbors,
+            loop_radius_m: self.loop_radius_m,
+            loop_min_gap: self.loop_min_gap,
+            loop_max_fitness_m: self.loop_max_fitness_m,
+            inclination_sigma_deg: self.inclination_sigma_deg,
+            estimate_bias: self.estimate_bias,
+            bias_prior_deg: self.bias_prior_deg,
+            ..speleo_slam::graph_slam::SlamParams::default()
         }
     }
 }
@@ -506,6 +571,45 @@ impl Config {
                 key: "lidar.mount_xyz".into(),
                 why: "mount values must be finite numbers".into(),
             });
+        }
+        let sl = &self.slam;
+        range(
+            "slam.keyframe_capacity",
+            sl.keyframe_capacity,
+            2,
+            100_000,
+            "2..=100000",
+        )?;
+        range(
+            "slam.active_keyframes",
+            sl.active_keyframes,
+            2,
+            100_000,
+            "2..=100000",
+        )?;
+        range(
+            "slam.max_scan_points",
+            sl.max_scan_points,
+            100,
+            1_000_000,
+            "100..=1000000",
+        )?;
+        range("slam.neighbors", sl.neighbors, 1, 6, "1..=6")?;
+        for (key, v) in [
+            ("slam.keyframe_distance_m", sl.keyframe_distance_m),
+            ("slam.keyframe_angle_deg", sl.keyframe_angle_deg),
+            ("slam.voxel_m", sl.voxel_m),
+            ("slam.loop_radius_m", sl.loop_radius_m),
+            ("slam.loop_max_fitness_m", sl.loop_max_fitness_m),
+            ("slam.inclination_sigma_deg", sl.inclination_sigma_deg),
+            ("slam.bias_prior_deg", sl.bias_prior_deg),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(ConfigError::Invalid {
+                    key: key.into(),
+                    why: format!("{v} is not a positive number"),
+                });
+            }
         }
         let h = &self.health;
         range(

@@ -10,5 +10,6 @@ pub mod modes;
 pub mod record;
 pub mod report;
 pub mod schedule_table;
+pub mod slam_figures;
 pub mod tasks;
 pub mod tools;

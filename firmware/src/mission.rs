@@ -21,9 +21,11 @@ use crate::config::Config;
 use crate::record::encode::{FrameTransform, Pose, PoseInFrame, Quaternion, SeqOf, Time};
 use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
+use crate::slam_figures::{SlamFigures, TruthTrack};
 use crate::tasks::recorder::mode_name;
 use crate::tasks::{
     control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, odometry, recorder,
+    slam,
 };
 
 /// How long the mission runs.
@@ -71,6 +73,8 @@ pub struct MissionResult {
     pub minor_frame_us: u32,
     pub slips: u64,
     pub allocations_after_init: u64,
+    /// Allocations of the tasks that run within a memory budget.
+    pub budgeted_allocations: u64,
     pub housekeeping_allocations: u64,
     pub tasks: Vec<TaskFigures>,
     pub mode: Mode,
@@ -78,6 +82,7 @@ pub struct MissionResult {
     pub suppressed_events: u64,
     pub recorder: TapCounters,
     pub counters: crate::bus::Counters,
+    pub slam: Option<SlamFigures>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -161,7 +166,16 @@ pub fn run<C: FrameClock>(
         wheel_radius_m: r.wheel_radius_m,
         counts_per_rev: cia402::COUNTS_PER_REV as f64,
         max_step_m: 1.0,
+        track_width_m: r.track_width_m,
+        skid_factor: r.skid_factor,
+        ..OdometryParams::default()
     });
+    let mut t_slam = slam::SlamTask::new(
+        cfg.slam.params(),
+        cfg.slam.enabled,
+        mount_pose(cfg),
+        cfg.lidar.max_points_per_frame as usize,
+    );
     let mut t_control = control::ControlTask::new(
         follower(cfg),
         SkidSteer {
@@ -203,11 +217,18 @@ pub fn run<C: FrameClock>(
     let _ = tasks.push(&mut t_imu);
     let _ = tasks.push(&mut t_drive);
     let _ = tasks.push(&mut t_odo);
+    let _ = tasks.push(&mut t_slam);
     let _ = tasks.push(&mut t_control);
     let _ = tasks.push(&mut t_out);
     let _ = tasks.push(&mut t_health);
     let _ = tasks.push(&mut t_rec);
     let minor_frame_us = m.schedule.minor_frame_us();
+    let m_names: Vec<String> = m
+        .schedule
+        .tasks()
+        .iter()
+        .map(|t| t.name.to_string())
+        .collect();
     let ntasks = m.schedule.tasks().len();
     let mut exec = Executive::new(m.schedule, tasks, StdPlatform, clock, m.enforcement)?;
 
@@ -218,6 +239,11 @@ pub fn run<C: FrameClock>(
     let telemetry_every = cfg.record.telemetry_every_frames as u64;
     // Odometry starts at the rover's first pose, heading as it heads.
     let mut odom_origin: Option<([f64; 3], [f64; 4])> = None;
+    // Ground truth for the SLAM error figures, sized for the whole run.
+    let mut track = TruthTrack::with_capacity(match (&m.truth, total) {
+        (Some(_), Some(n)) => n as usize,
+        _ => 0,
+    });
     warm_up_blocking();
     let started = Instant::now();
     accounting::reset();
@@ -245,6 +271,7 @@ pub fn run<C: FrameClock>(
                 truth,
                 &mut odom_origin,
             );
+            track.samples.push((f.time_ns, truth.get().position));
         }
         if (f.frame + 1) % telemetry_every == 0 {
             record_telemetry(&mut tap.borrow_mut(), &exec, f.frame, f.time_ns);
@@ -271,7 +298,21 @@ pub fn run<C: FrameClock>(
     }
     accounting::untrack();
     let wall = started.elapsed().as_secs_f64();
-    let allocations_after_init: u64 = (0..=ntasks).map(accounting::allocations).sum();
+    // Tasks that call allocating crates (sparse factorisation) are counted
+    // apart: they run within a memory budget instead.
+    let budgeted = |slot: usize| {
+        slot > 0
+            && crate::schedule_table::ALLOCATING_TASKS
+                .contains(&m_names.get(slot - 1).map_or("", String::as_str))
+    };
+    let allocations_after_init: u64 = (0..=ntasks)
+        .filter(|s| !budgeted(*s))
+        .map(accounting::allocations)
+        .sum();
+    let budgeted_allocations: u64 = (0..=ntasks)
+        .filter(|s| budgeted(*s))
+        .map(accounting::allocations)
+        .sum();
     let housekeeping_allocations = accounting::allocations(accounting::HOUSEKEEPING as usize);
 
     if let Some(c) = tap.borrow_mut().comparer_mut() {
@@ -299,6 +340,20 @@ pub fn run<C: FrameClock>(
         })
         .collect();
     let frames = exec.frames_run();
+    let slips = exec.slips();
+    let mode = exec.mode();
+    let safe_mode_cause = exec.safe_mode_cause().map(str::to_string);
+    let suppressed_events = exec.suppressed_events();
+    // The executive borrows the tasks; release them to read SLAM's result.
+    drop(exec);
+    track.odom_origin = odom_origin.map(|(p, q)| (p, 2.0 * q[3].atan2(q[0])));
+    let slam = (t_slam.slam().stats().keyframes > 0).then(|| {
+        crate::slam_figures::figures(
+            t_slam.slam(),
+            m.truth.as_ref().map(|_| &track),
+            m.truth.as_ref().map(|_| cfg.sim.imu_misalignment_deg),
+        )
+    });
     let t = tap.borrow();
     Ok(MissionResult {
         frames,
@@ -307,16 +362,28 @@ pub fn run<C: FrameClock>(
         output_hash: t.output_hash(),
         input_hash: t.input_hash(),
         minor_frame_us,
-        slips: exec.slips(),
+        slips,
         allocations_after_init,
+        budgeted_allocations,
         housekeeping_allocations,
         tasks,
-        mode: exec.mode(),
-        safe_mode_cause: exec.safe_mode_cause().map(str::to_string),
-        suppressed_events: exec.suppressed_events(),
+        mode,
+        safe_mode_cause,
+        suppressed_events,
+        slam,
         recorder: t.counters,
         counters: bus.counters,
     })
+}
+
+/// The LiDAR mount from the configuration: base <- sensor.
+fn mount_pose(cfg: &Config) -> speleo_slam::lie::Pose {
+    let [r, p, y] = cfg.lidar.mount_rpy_deg.map(f64::to_radians);
+    let q = nalgebra::UnitQuaternion::from_euler_angles(r, p, y);
+    speleo_slam::lie::Pose::new(
+        *q.to_rotation_matrix().matrix(),
+        nalgebra::Vector3::from(cfg.lidar.mount_xyz),
+    )
 }
 
 fn record_truth(

@@ -17,7 +17,8 @@ use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
 use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
 
 use crate::cli::{
-    DecodeCommand, Outputs, Pcap2mcapArgs, ReplayArgs, RunArgs, SimArgs, WorldExportArgs,
+    DecodeCommand, G2oArgs, Outputs, Pcap2mcapArgs, RegisterArgs, ReplayArgs, RunArgs, SimArgs,
+    WorldExportArgs,
 };
 use crate::config::Config;
 use crate::mission::{self, Length, MissionInputs, MissionResult};
@@ -494,5 +495,23 @@ pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
         w.start[2],
         w.start[3].to_degrees()
     );
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn g2o(a: G2oArgs) -> Result<ExitCode, Error> {
+    let r = crate::tools::g2o::run(&a.file, &a.init, a.max_iterations, a.out.as_deref())?;
+    println!("{r}");
+    if let Some(path) = &a.report {
+        report::write_json(path, &r)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub fn register(a: RegisterArgs) -> Result<ExitCode, Error> {
+    let r = crate::tools::register::register(&a.source, &a.target, a.init.as_deref(), a.voxel)?;
+    println!("{r}");
+    if let Some(path) = &a.report {
+        report::write_json(path, &r)?;
+    }
     Ok(ExitCode::SUCCESS)
 }

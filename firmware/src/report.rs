@@ -19,6 +19,8 @@ pub struct Report<'a> {
     pub counters: serde_json::Value,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub replay: Option<ReplayReport>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slam: Option<&'a crate::slam_figures::SlamFigures>,
 }
 
 #[derive(Serialize)]
@@ -27,6 +29,8 @@ pub struct SchedulerReport<'a> {
     pub slips: u64,
     /// Heap allocations by the executive and its periodic tasks after start-up.
     pub allocations_after_init: u64,
+    /// Allocations of tasks that run within a memory budget (SLAM's solver).
+    pub budgeted_allocations: u64,
     /// Allocations of logging and progress display between frames.
     pub housekeeping_allocations: u64,
     pub mode_at_end: &'a str,
@@ -67,6 +71,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
             minor_frame_us: r.minor_frame_us,
             slips: r.slips,
             allocations_after_init: r.allocations_after_init,
+            budgeted_allocations: r.budgeted_allocations,
             housekeeping_allocations: r.housekeeping_allocations,
             mode_at_end: mode_name(r.mode),
             safe_mode_cause: r.safe_mode_cause.as_deref(),
@@ -94,10 +99,16 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
             "hal_errors": c.hal_errors,
         }),
         replay,
+        slam: r.slam.as_ref(),
     }
 }
 
 pub fn write(path: &std::path::Path, report: &Report<'_>) -> Result<(), String> {
-    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    write_json(path, report)
+}
+
+/// Any serialisable report as pretty JSON.
+pub fn write_json(path: &std::path::Path, value: &impl serde::Serialize) -> Result<(), String> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| e.to_string())?;
     std::fs::write(path, text + "\n").map_err(|e| format!("cannot write {}: {e}", path.display()))
 }

@@ -6,13 +6,18 @@ use speleo_scheduler::{AnytimeSpec, OverrunPolicy, RateGroup, Schedule, TaskSpec
 
 use crate::config::{Config, ConfigError};
 
+/// Tasks that call allocating crates (the solver's sparse analysis) and run
+/// within a memory budget; every other task allocates nothing after start-up.
+pub const ALLOCATING_TASKS: [&str; 1] = ["slam"];
+
 /// Task names in execution order.
-pub const TASKS: [&str; 9] = [
+pub const TASKS: [&str; 10] = [
     "io",
     "lidar_driver",
     "imu_driver",
     "drive_driver",
     "odometry",
+    "slam",
     "control",
     "drive_output",
     "health",
@@ -30,6 +35,19 @@ fn defaults() -> Vec<TaskSpec> {
         TaskSpec::periodic("imu_driver", every, 300, Skip).safe(),
         TaskSpec::periodic("drive_driver", every, 300, Skip).safe(),
         TaskSpec::periodic("odometry", every, 300, ReuseLast),
+        // One unit of keyframe work a frame (prepare a cloud, one GICP, insert,
+        // one LM iteration): a keyframe takes about 12 frames.
+        TaskSpec::anytime(
+            "slam",
+            every,
+            2_000,
+            Skip,
+            AnytimeSpec {
+                quantum: 1,
+                steps: 1,
+                window_us: 2_000,
+            },
+        ),
         // 50 Hz path following, in the odd frames.
         TaskSpec::periodic("control", RateGroup::new(2, 1), 500, Degrade),
         TaskSpec::periodic("drive_output", every, 200, SafeMode).safe(),

@@ -46,6 +46,8 @@ pub enum Topic {
     Scheduler,
     GroundTruth,
     SimTf,
+    /// The SLAM pose in the map frame (added last: channel ids stay stable).
+    SlamPose,
 }
 
 pub struct TopicInfo {
@@ -82,7 +84,7 @@ impl TopicInfo {
 const RAW: &str = "speleo_msgs/msg/RawInput";
 
 impl Topic {
-    pub const ALL: [Topic; 17] = [
+    pub const ALL: [Topic; 18] = [
         Topic::RawLidar,
         Topic::RawLidarPosition,
         Topic::RawImu,
@@ -100,6 +102,7 @@ impl Topic {
         Topic::Scheduler,
         Topic::GroundTruth,
         Topic::SimTf,
+        Topic::SlamPose,
     ];
 
     /// Position in the data flow (decoded inputs first, commands to the
@@ -109,7 +112,7 @@ impl Topic {
         match self {
             Topic::RawLidar | Topic::RawLidarPosition | Topic::RawImu | Topic::RawCan => 0,
             Topic::Imu | Topic::Cloud | Topic::Drives => 1,
-            Topic::Odom | Topic::Tf => 2,
+            Topic::Odom | Topic::Tf | Topic::SlamPose => 2,
             Topic::WheelCommand | Topic::Plan => 3,
             Topic::Health => 4,
             Topic::ImuTx | Topic::CanTx => 5,
@@ -148,6 +151,12 @@ impl Topic {
                 Role::Output,
             ),
             Topic::Odom => ("/odom", "foxglove.PoseInFrame", POSE_IN_FRAME, Role::Output),
+            Topic::SlamPose => (
+                "/slam/pose",
+                "foxglove.PoseInFrame",
+                POSE_IN_FRAME,
+                Role::Output,
+            ),
             Topic::Tf => (
                 "/tf",
                 "foxglove.FrameTransform",

@@ -10,3 +10,4 @@ pub mod io;
 pub mod lidar_driver;
 pub mod odometry;
 pub mod recorder;
+pub mod slam;

@@ -24,6 +24,7 @@ pub struct RecorderTask<'r> {
     imu_cursor: u64,
     drives_seen: u64,
     odom_seen: u64,
+    slam_seen: u64,
     command_seen: u64,
     health_seen: u64,
     plan: Vec<[f64; 2]>,
@@ -53,6 +54,7 @@ impl<'r> RecorderTask<'r> {
             imu_cursor: 0,
             drives_seen: 0,
             odom_seen: 0,
+            slam_seen: 0,
             command_seen: 0,
             health_seen: 0,
             plan,
@@ -289,6 +291,25 @@ impl Task<Bus> for RecorderTask<'_> {
             tap.emit(Topic::Tf, frame, now, o.stamp_ns, |w| {
                 serde_json::to_writer(w, &tf)
             });
+        }
+
+        if let Some(o) = bus.slam.newer_than(self.slam_seen) {
+            self.slam_seen = o.seq;
+            // Only once SLAM has a map (before its first keyframe it repeats
+            // the odometry).
+            if o.value.keyframes > 0 {
+                let pose = PoseInFrame {
+                    timestamp: tap.time(o.stamp_ns),
+                    frame_id: "map",
+                    pose: Pose {
+                        position: o.value.position.into(),
+                        orientation: Quaternion::wxyz(o.value.orientation),
+                    },
+                };
+                tap.emit(Topic::SlamPose, frame, now, o.stamp_ns, |w| {
+                    serde_json::to_writer(w, &pose)
+                });
+            }
         }
 
         if let Some(c) = bus.command.newer_than(self.command_seen) {

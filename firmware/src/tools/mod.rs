@@ -1,8 +1,11 @@
-//! Offline tools: importing captures and decoding device logs.
+//! Offline tools: importing captures, decoding device logs, pose graphs
+//! and scan registration.
 
 pub mod decode_can;
 pub mod decode_hdl32e;
 pub mod decode_xbus;
+pub mod g2o;
 pub mod pcap2mcap;
+pub mod register;
 
 pub type Error = Box<dyn std::error::Error>;

@@ -1,0 +1,546 @@
+//! The on-board SLAM pipeline (paper section 2.1): keyframes with their
+//! downsampled scans, GICP factors to the nearest keyframes, odometry
+//! factors between successive keyframes, inclination factors through the
+//! IMU-to-LiDAR bias, loop closures verified by GICP fitness under a robust
+//! kernel, and Levenberg-Marquardt run in anytime steps.
+//!
+//! Work is split into [`GraphSlam::step`]s of bounded size (prepare one
+//! cloud, one registration, insert, one LM iteration), so a scheduler can
+//! spread a keyframe over several frames; the sequence of steps depends
+//! only on the data, never on time. All buffers are sized at construction;
+//! only the solver's symbolic analysis allocates when the graph's structure
+//! changes (a new keyframe), inside the task's memory budget.
+
+use heapless::Vec as HVec;
+use nalgebra::{Matrix3, Matrix6, Vector3};
+
+use crate::factors::{Factor, Robust, Var, VarKind};
+use crate::lie::Pose;
+use crate::registration::gicp::{align, Alignment, GicpParams, PreparedCloud};
+use crate::solver::{LmParams, Solver, Step};
+
+/// Settings, from the `[slam]` configuration table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SlamParams {
+    /// Keyframes the store holds; when full, no more are added (reported).
+    pub keyframe_capacity: usize,
+    /// Keyframes kept free in the optimisation; older ones are frozen.
+    pub active_keyframes: usize,
+    pub keyframe_distance_m: f64,
+    pub keyframe_angle_deg: f64,
+    /// Voxel size of the registration clouds.
+    pub voxel_m: f64,
+    /// Points kept per keyframe scan after downsampling.
+    pub max_scan_points: usize,
+    /// GICP factors to this many nearest recent keyframes (the previous
+    /// one included).
+    pub neighbors: usize,
+    pub neighbor_radius_m: f64,
+    /// Loop candidates: keyframes at least `loop_min_gap` keyframes older
+    /// within this distance of the new one.
+    pub loop_radius_m: f64,
+    pub loop_min_gap: usize,
+    /// A loop closure is accepted when GICP's inlier RMSE is below this...
+    pub loop_max_fitness_m: f64,
+    /// ...and this share of the source points found a correspondence.
+    pub loop_min_inlier_fraction: f64,
+    /// Odometry noise: standard deviation per metre driven.
+    pub odom_sigma_m_per_m: f64,
+    pub odom_sigma_rad_per_m: f64,
+    pub inclination_sigma_deg: f64,
+    /// GICP's Hessian assumes independent points; scale it to an honest
+    /// information.
+    pub gicp_information_scale: f64,
+    /// Cauchy kernel scale (whitened units) of the GICP factors.
+    pub robust_scale: f64,
+    /// LM iterations after each new keyframe.
+    pub iterations_per_keyframe: u32,
+    /// Estimate the IMU-to-LiDAR bias (else it is held at the identity).
+    pub estimate_bias: bool,
+    /// Standard deviation of the bias prior (mounting tolerance), deg.
+    pub bias_prior_deg: f64,
+    pub gicp: GicpParams,
+}
+
+impl Default for SlamParams {
+    fn default() -> Self {
+        SlamParams {
+            keyframe_capacity: 1024,
+            active_keyframes: 400,
+            keyframe_distance_m: 1.0,
+            keyframe_angle_deg: 15.0,
+            voxel_m: 0.2,
+            max_scan_points: 12_000,
+            neighbors: 3,
+            neighbor_radius_m: 8.0,
+            loop_radius_m: 5.0,
+            loop_min_gap: 25,
+            loop_max_fitness_m: 0.12,
+            loop_min_inlier_fraction: 0.5,
+            odom_sigma_m_per_m: 0.05,
+            odom_sigma_rad_per_m: 0.02,
+            inclination_sigma_deg: 1.0,
+            gicp_information_scale: 0.05,
+            robust_scale: 3.0,
+            iterations_per_keyframe: 6,
+            estimate_bias: true,
+            bias_prior_deg: 1.0,
+            gicp: GicpParams {
+                max_correspondence_m: 1.0,
+                max_iterations: 30,
+                ..GicpParams::default()
+            },
+        }
+    }
+}
+
+/// What the pipeline has done.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlamStats {
+    pub keyframes: u64,
+    pub frozen: u64,
+    pub registrations: u64,
+    pub registrations_rejected: u64,
+    pub loop_closures: u64,
+    pub loop_candidates_rejected: u64,
+    pub lm_iterations: u64,
+    /// Scans offered while a keyframe was still being processed.
+    pub scans_busy: u64,
+    /// Keyframes refused because the store was full.
+    pub keyframes_refused: u64,
+    pub solver_failures: u64,
+}
+
+/// A keyframe's bookkeeping (its scan lives in the shared pool).
+#[derive(Clone, Copy, Debug)]
+pub struct Keyframe {
+    pub stamp_ns: u64,
+    /// Odometry pose when the scan started.
+    pub odom: Pose,
+    /// Gravity "up" in the IMU frame.
+    pub up_imu: Vector3<f64>,
+    points: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Idle,
+    Prepare,
+    Register(usize),
+    Insert,
+    Optimize(u32),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    keyframe: usize,
+    is_loop: bool,
+    result: Option<Alignment>,
+}
+
+const MAX_CANDIDATES: usize = 8;
+/// Variable index of the bias; keyframe `k` is variable `k + 1`.
+const BIAS: usize = 0;
+
+pub struct GraphSlam {
+    p: SlamParams,
+    keyframes: Vec<Keyframe>,
+    /// Downsampled scans (base frame), `max_scan_points` slots per keyframe.
+    pool: Vec<[f32; 3]>,
+    vars: Vec<Var>,
+    factors: Vec<Factor>,
+    solver: Option<Solver>,
+    /// Prepared clouds: slot 0 is the new scan; the rest cache keyframes.
+    clouds: Vec<PreparedCloud>,
+    owner: Vec<Option<usize>>,
+    next_victim: usize,
+    /// The scan waiting to become a keyframe (base frame).
+    pending: Vec<[f64; 3]>,
+    pending_kf: Option<Keyframe>,
+    candidates: HVec<Candidate, MAX_CANDIDATES>,
+    phase: Phase,
+    stats: SlamStats,
+    loop_closures: Vec<(usize, usize)>,
+}
+
+impl GraphSlam {
+    pub fn new(p: SlamParams) -> Self {
+        let cap = p.keyframe_capacity.max(2);
+        let slots = p.neighbors.clamp(1, MAX_CANDIDATES - 1) + 2;
+        GraphSlam {
+            keyframes: Vec::with_capacity(cap),
+            pool: vec![[0.0; 3]; cap * p.max_scan_points],
+            vars: Vec::with_capacity(cap + 1),
+            factors: Vec::with_capacity(cap * (p.neighbors + 5)),
+            solver: None,
+            clouds: (0..slots)
+                .map(|_| PreparedCloud::with_capacity(p.max_scan_points))
+                .collect(),
+            owner: vec![None; slots],
+            next_victim: 1,
+            pending: Vec::with_capacity(p.max_scan_points * 4),
+            pending_kf: None,
+            candidates: HVec::new(),
+            phase: Phase::Idle,
+            stats: SlamStats::default(),
+            loop_closures: Vec::with_capacity(cap),
+            p,
+        }
+    }
+
+    pub fn params(&self) -> &SlamParams {
+        &self.p
+    }
+
+    pub fn stats(&self) -> SlamStats {
+        self.stats
+    }
+
+    pub fn is_idle(&self) -> bool {
+        self.phase == Phase::Idle
+    }
+
+    pub fn keyframes(&self) -> &[Keyframe] {
+        &self.keyframes
+    }
+
+    /// Optimised pose of keyframe `k` in the map frame.
+    pub fn keyframe_pose(&self, k: usize) -> Pose {
+        self.vars[k + 1].pose
+    }
+
+    /// The keyframe's downsampled scan (base frame).
+    pub fn keyframe_scan(&self, k: usize) -> &[[f32; 3]] {
+        let start = k * self.p.max_scan_points;
+        &self.pool[start..start + self.keyframes[k].points]
+    }
+
+    /// Accepted loop closures (older keyframe, newer keyframe).
+    pub fn loop_closures(&self) -> &[(usize, usize)] {
+        &self.loop_closures
+    }
+
+    /// The IMU-to-LiDAR bias rotation (identity until estimated).
+    pub fn bias(&self) -> Matrix3<f64> {
+        self.vars.first().map_or(Matrix3::identity(), |v| v.pose.r)
+    }
+
+    /// Map pose of the rover now, from the odometry pose now: the last
+    /// keyframe's optimised pose plus odometry since.
+    pub fn pose(&self, odom_now: &Pose) -> Pose {
+        match self.keyframes.last() {
+            None => *odom_now,
+            Some(kf) => {
+                let k = self.keyframes.len() - 1;
+                self.keyframe_pose(k).compose(&kf.odom.between(odom_now))
+            }
+        }
+    }
+
+    /// Whether a scan taken at odometry pose `odom` should become a keyframe.
+    pub fn wants_keyframe(&self, odom: &Pose) -> bool {
+        let Some(kf) = self.keyframes.last() else {
+            return true;
+        };
+        let rel = kf.odom.between(odom);
+        let angle = crate::lie::log_so3(&rel.r).norm();
+        rel.t.norm() >= self.p.keyframe_distance_m
+            || angle >= self.p.keyframe_angle_deg.to_radians()
+    }
+
+    /// Offer a scan (base frame, deskewed) taken at `odom`; returns whether
+    /// it was taken as the next keyframe.
+    pub fn offer_scan(
+        &mut self,
+        stamp_ns: u64,
+        odom: Pose,
+        up_imu: Vector3<f64>,
+        points: impl IntoIterator<Item = [f64; 3]>,
+    ) -> bool {
+        if !self.is_idle() {
+            self.stats.scans_busy += 1;
+            return false;
+        }
+        if self.keyframes.len() >= self.keyframes.capacity() {
+            self.stats.keyframes_refused += 1;
+            return false;
+        }
+        if !self.wants_keyframe(&odom) {
+            return false;
+        }
+        self.pending.clear();
+        for p in points {
+            if self.pending.len() == self.pending.capacity() {
+                break;
+            }
+            self.pending.push(p);
+        }
+        let up = if up_imu.norm() > 0.5 {
+            up_imu.normalize()
+        } else {
+            Vector3::z()
+        };
+        self.pending_kf = Some(Keyframe {
+            stamp_ns,
+            odom,
+            up_imu: up,
+            points: 0,
+        });
+        self.phase = Phase::Prepare;
+        true
+    }
+
+    /// One bounded unit of work; returns false when idle.
+    pub fn step(&mut self) -> bool {
+        match self.phase {
+            Phase::Idle => return false,
+            Phase::Prepare => self.prepare(),
+            Phase::Register(i) => self.register(i),
+            Phase::Insert => self.insert(),
+            Phase::Optimize(n) => self.optimize(n),
+        }
+        true
+    }
+
+    /// Predicted map pose of the pending keyframe.
+    fn predicted(&self, kf: &Keyframe) -> Pose {
+        self.pose(&kf.odom)
+    }
+
+    fn prepare(&mut self) {
+        let voxel = self.p.voxel_m;
+        self.clouds[0].prepare(self.pending.iter().copied(), voxel);
+        self.owner[0] = None;
+        // Candidates: the nearest recent keyframes and the best loop.
+        self.candidates.clear();
+        let Some(kf) = self.pending_kf else {
+            self.phase = Phase::Idle;
+            return;
+        };
+        let n = self.keyframes.len();
+        if n == 0 {
+            self.phase = Phase::Insert;
+            return;
+        }
+        let here = self.predicted(&kf).t;
+        let _ = self.candidates.push(Candidate {
+            keyframe: n - 1,
+            is_loop: false,
+            result: None,
+        });
+        let mut near: HVec<(f64, usize), 64> = HVec::new();
+        let mut best_loop: Option<(f64, usize)> = None;
+        for k in (0..n - 1).rev() {
+            let d = (self.keyframe_pose(k).t - here).norm();
+            if n - k < self.p.loop_min_gap {
+                if d <= self.p.neighbor_radius_m && near.len() < near.capacity() {
+                    let _ = near.push((d, k));
+                }
+            } else if d <= self.p.loop_radius_m && best_loop.is_none_or(|(bd, _)| d < bd) {
+                best_loop = Some((d, k));
+            }
+        }
+        near.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for &(_, k) in near.iter().take(self.p.neighbors.saturating_sub(1)) {
+            let _ = self.candidates.push(Candidate {
+                keyframe: k,
+                is_loop: false,
+                result: None,
+            });
+        }
+        if let Some((_, k)) = best_loop {
+            let _ = self.candidates.push(Candidate {
+                keyframe: k,
+                is_loop: true,
+                result: None,
+            });
+        }
+        self.phase = Phase::Register(0);
+    }
+
+    /// A prepared cloud of keyframe `k`: from the cache, else prepared now
+    /// into the least recently filled slot.
+    fn target_slot(&mut self, k: usize) -> usize {
+        if let Some(s) = (1..self.clouds.len()).find(|&s| self.owner[s] == Some(k)) {
+            return s;
+        }
+        let s = self.next_victim;
+        self.next_victim = if s + 1 >= self.clouds.len() { 1 } else { s + 1 };
+        let start = k * self.p.max_scan_points;
+        let pts = &self.pool[start..start + self.keyframes[k].points];
+        // Keyframe scans are stored already downsampled: keep every point.
+        self.clouds[s].prepare(
+            pts.iter().map(|p| [p[0] as f64, p[1] as f64, p[2] as f64]),
+            0.0,
+        );
+        self.owner[s] = Some(k);
+        s
+    }
+
+    fn register(&mut self, i: usize) {
+        if i >= self.candidates.len() {
+            self.phase = Phase::Insert;
+            return;
+        }
+        let Some(kf) = self.pending_kf else {
+            self.phase = Phase::Idle;
+            return;
+        };
+        let k = self.candidates[i].keyframe;
+        let slot = self.target_slot(k);
+        let init = self
+            .keyframe_pose(k)
+            .between(&self.predicted(&kf))
+            .to_isometry();
+        let (src, rest) = self.clouds.split_at_mut(1);
+        let a = align(&src[0], &rest[slot - 1], &init, &self.p.gicp);
+        self.stats.registrations += 1;
+        self.candidates[i].result = Some(a);
+        self.phase = Phase::Register(i + 1);
+    }
+
+    fn insert(&mut self) {
+        let Some(mut kf) = self.pending_kf.take() else {
+            self.phase = Phase::Idle;
+            return;
+        };
+        let k = self.keyframes.len();
+        // Keep the downsampled scan.
+        let cloud = &self.clouds[0];
+        let n = cloud.len().min(self.p.max_scan_points);
+        let start = k * self.p.max_scan_points;
+        for (dst, src) in self.pool[start..start + n].iter_mut().zip(cloud.points()) {
+            *dst = [src[0] as f32, src[1] as f32, src[2] as f32];
+        }
+        kf.points = n;
+        let predicted = self.predicted(&kf);
+        if k == 0 {
+            self.vars.push(Var {
+                pose: Pose::identity(),
+                kind: VarKind::Tilt,
+                fixed: !self.p.estimate_bias,
+            });
+            // Weak prior: the bias is small; gravity observes it over time.
+            self.factors.push(Factor::RotationPrior {
+                i: BIAS,
+                r: Matrix3::identity(),
+                sqrt_weight: 1.0 / self.p.bias_prior_deg.max(1e-3).to_radians(),
+            });
+        }
+        self.vars.push(Var {
+            pose: predicted,
+            kind: VarKind::Pose3,
+            fixed: false,
+        });
+        let var = k + 1;
+        if k == 0 {
+            self.factors.push(Factor::Anchor {
+                i: var,
+                position: predicted.t,
+                yaw: predicted.yaw(),
+                sqrt_weight: 1e3,
+            });
+        } else {
+            let prev = &self.keyframes[k - 1];
+            let z = prev.odom.between(&kf.odom);
+            let d = z.t.norm().max(0.05);
+            let st = 1.0 / (self.p.odom_sigma_m_per_m * d);
+            let sr = 1.0 / (self.p.odom_sigma_rad_per_m * d);
+            let u = Matrix6::from_diagonal(&nalgebra::Vector6::new(st, st, st, sr, sr, sr));
+            // Robust too: spinning wheels (a rover stuck nose-up) report
+            // travel that the scans do not see.
+            self.factors.push(Factor::Between {
+                i: var - 1,
+                j: var,
+                z,
+                sqrt_info: u,
+                robust: Robust::Cauchy(self.p.robust_scale),
+            });
+        }
+        self.factors.push(Factor::Inclination {
+            pose: var,
+            bias: BIAS,
+            up: kf.up_imu,
+            sqrt_weight: 1.0 / self.p.inclination_sigma_deg.to_radians(),
+        });
+        for c in self.candidates.clone() {
+            let Some(a) = c.result else { continue };
+            let ok = if c.is_loop {
+                a.fitness <= self.p.loop_max_fitness_m
+                    && a.inlier_fraction >= self.p.loop_min_inlier_fraction
+            } else {
+                a.inlier_fraction >= 0.3
+            };
+            if !ok {
+                if c.is_loop {
+                    self.stats.loop_candidates_rejected += 1;
+                } else {
+                    self.stats.registrations_rejected += 1;
+                }
+                continue;
+            }
+            let info = a.hessian * self.p.gicp_information_scale + Matrix6::identity() * 1e-6;
+            let Some(ch) = info.cholesky() else {
+                self.stats.registrations_rejected += 1;
+                continue;
+            };
+            self.factors.push(Factor::Between {
+                i: c.keyframe + 1,
+                j: var,
+                z: Pose::from_isometry(&a.transform),
+                sqrt_info: ch.l().transpose(),
+                robust: Robust::Cauchy(self.p.robust_scale),
+            });
+            if c.is_loop {
+                self.stats.loop_closures += 1;
+                if self.loop_closures.len() < self.loop_closures.capacity() {
+                    self.loop_closures.push((c.keyframe, k));
+                }
+            }
+        }
+        self.keyframes.push(kf);
+        self.stats.keyframes += 1;
+        // The new scan's prepared cloud becomes the newest cache entry.
+        let s = self.next_victim;
+        self.next_victim = if s + 1 >= self.clouds.len() { 1 } else { s + 1 };
+        self.clouds.swap(0, s);
+        self.owner[s] = Some(k);
+        self.owner[0] = None;
+        // Freeze the oldest keyframes beyond the active window.
+        let active = self.p.active_keyframes.max(2);
+        if self.keyframes.len() > active {
+            let oldest = self.keyframes.len() - active;
+            if !self.vars[oldest].fixed {
+                self.vars[oldest].fixed = true;
+                self.stats.frozen += 1;
+            }
+        }
+        self.solver = match Solver::new(&self.vars, &self.factors, LmParams::default()) {
+            Ok(s) => Some(s),
+            Err(_) => {
+                self.stats.solver_failures += 1;
+                None
+            }
+        };
+        self.phase = Phase::Optimize(0);
+    }
+
+    fn optimize(&mut self, n: u32) {
+        let Some(solver) = self.solver.as_mut() else {
+            self.phase = Phase::Idle;
+            return;
+        };
+        let step = solver.iterate(&mut self.vars, &self.factors);
+        self.stats.lm_iterations += 1;
+        self.phase = if step == Step::Converged || n + 1 >= self.p.iterations_per_keyframe {
+            Phase::Idle
+        } else {
+            Phase::Optimize(n + 1)
+        };
+    }
+
+    /// Process everything pending (offline use and tests).
+    pub fn run_to_idle(&mut self) {
+        while self.step() {}
+    }
+}
