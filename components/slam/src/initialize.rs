@@ -26,6 +26,15 @@ fn solve_spd(
     Ok(())
 }
 
+/// Index of vertex `v` among the unknowns when the anchor `a` is known.
+fn unknown_index(v: usize, a: usize) -> Option<usize> {
+    match v.cmp(&a) {
+        std::cmp::Ordering::Less => Some(v),
+        std::cmp::Ordering::Equal => None,
+        std::cmp::Ordering::Greater => Some(v - 1),
+    }
+}
+
 /// Index of the anchor vertex: the first fixed one, else the first.
 pub fn anchor(g: &G2o) -> usize {
     g.fixed.iter().position(|f| *f).unwrap_or(0)
@@ -35,16 +44,7 @@ pub fn anchor(g: &G2o) -> usize {
 pub fn chordal(g: &G2o) -> Result<Vec<Pose>, String> {
     let n = g.poses.len();
     let a = anchor(g);
-    // Unknown index of each vertex (the anchor is known).
-    let idx = |v: usize| {
-        if v < a {
-            Some(v)
-        } else if v == a {
-            None
-        } else {
-            Some(v - 1)
-        }
-    };
+    let idx = |v: usize| unknown_index(v, a);
     let m = n - 1;
     if m == 0 {
         return Ok(g.poses.clone());
@@ -124,15 +124,7 @@ pub fn chordal(g: &G2o) -> Result<Vec<Pose>, String> {
 fn translations(g: &G2o, poses: &mut [Pose], a: usize) -> Result<(), String> {
     let n = poses.len();
     let m = n - 1;
-    let idx = |v: usize| {
-        if v < a {
-            Some(v)
-        } else if v == a {
-            None
-        } else {
-            Some(v - 1)
-        }
-    };
+    let idx = |v: usize| unknown_index(v, a);
     let mut trip = Vec::new();
     let mut rhs = vec![0.0; m * 3];
     let ta = poses[a].t;
