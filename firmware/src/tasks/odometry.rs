@@ -117,14 +117,19 @@ mod tests {
         bus.drives.publish(t_ns, s);
     }
 
-    #[test]
-    fn publishes_every_frame_and_keeps_the_pose_history() {
-        let mut bus = Bus::new();
-        let mut t = OdometryTask::new(OdometryParams {
+    /// A task whose wheels roll 1 m per 1000 counts.
+    fn metre_per_1000_counts() -> OdometryTask {
+        OdometryTask::new(OdometryParams {
             counts_per_rev: 1000.0,
             wheel_radius_m: 1.0 / (2.0 * core::f64::consts::PI),
             ..OdometryParams::default()
-        });
+        })
+    }
+
+    #[test]
+    fn publishes_every_frame_and_keeps_the_pose_history() {
+        let mut bus = Bus::new();
+        let mut t = metre_per_1000_counts();
         // 1000 counts = 1 m; 10 counts a frame.
         for f in 0..300u64 {
             drives(&mut bus, f * 10_000_000 + 500_000, 10 * f as i32, &[]);
@@ -148,11 +153,7 @@ mod tests {
     #[test]
     fn waits_for_all_four_positions_of_a_sync() {
         let mut bus = Bus::new();
-        let mut t = OdometryTask::new(OdometryParams {
-            counts_per_rev: 1000.0,
-            wheel_radius_m: 1.0 / (2.0 * core::f64::consts::PI),
-            ..OdometryParams::default()
-        });
+        let mut t = metre_per_1000_counts();
         drives(&mut bus, 1_000, 0, &[]);
         t.run(&mut bus, &cx(0));
         // Rear right's answer comes a frame late: no step, then one.

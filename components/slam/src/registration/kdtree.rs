@@ -186,44 +186,8 @@ impl KdTree {
             index: u32::MAX,
             dist_sq: max_dist_sq,
         };
-        let mut off = [0.0; 3];
-        self.nearest_in(0, q, 0.0, &mut off, &mut best);
+        self.search(0, q, 0.0, &mut [0.0; 3], &mut best);
         (best.index != u32::MAX).then_some(best)
-    }
-
-    /// `rd` is the squared distance from `q` to the node's cell along the
-    /// axes recorded in `off` (nanoflann's incremental distance), which
-    /// prunes better than the distance to the splitting plane alone.
-    fn nearest_in(&self, n: usize, q: &[f64; 3], rd: f64, off: &mut [f64; 3], best: &mut Neighbor) {
-        let node = self.nodes[n];
-        if node.axis == LEAF {
-            let (a, b) = (node.a as usize, node.b as usize);
-            for (i, p) in (a..b).zip(&self.points[a..b]) {
-                let d = dist_sq(p, q);
-                if d < best.dist_sq || (d == best.dist_sq && best.index == u32::MAX) {
-                    *best = Neighbor {
-                        index: i as u32,
-                        dist_sq: d,
-                    };
-                }
-            }
-            return;
-        }
-        let ax = node.axis as usize;
-        let diff = q[ax] - node.split;
-        let (near, far) = if diff < 0.0 {
-            (n + 1, node.a as usize)
-        } else {
-            (node.a as usize, n + 1)
-        };
-        self.nearest_in(near, q, rd, off, best);
-        let old = off[ax];
-        let rd_far = rd - old * old + diff * diff;
-        if rd_far <= best.dist_sq {
-            off[ax] = diff;
-            self.nearest_in(far, q, rd_far, off, best);
-            off[ax] = old;
-        }
     }
 
     /// The `out.len()` (at most [`MAX_K`]) nearest points within
@@ -239,20 +203,22 @@ impl KdTree {
             items: &mut out[..k],
             bound: max_dist_sq,
         };
-        let mut off = [0.0; 3];
-        self.knn_in(0, q, 0.0, &mut off, &mut heap);
+        self.search(0, q, 0.0, &mut [0.0; 3], &mut heap);
         heap.found
     }
 
-    fn knn_in(&self, n: usize, q: &[f64; 3], rd: f64, off: &mut [f64; 3], h: &mut Knn<'_>) {
+    /// The traversal shared by both queries: leaves offer their points to
+    /// `c`, and a far child is visited only when its cell can still hold a
+    /// point within `c.bound()`. `rd` is the squared distance from `q` to
+    /// the node's cell along the axes recorded in `off` (nanoflann's
+    /// incremental distance), which prunes better than the distance to the
+    /// splitting plane alone.
+    fn search<C: Collector>(&self, n: usize, q: &[f64; 3], rd: f64, off: &mut [f64; 3], c: &mut C) {
         let node = self.nodes[n];
         if node.axis == LEAF {
             let (a, b) = (node.a as usize, node.b as usize);
             for (i, p) in (a..b).zip(&self.points[a..b]) {
-                let d = dist_sq(p, q);
-                if d <= h.bound {
-                    h.insert(i as u32, d);
-                }
+                c.offer(i as u32, dist_sq(p, q));
             }
             return;
         }
@@ -263,13 +229,47 @@ impl KdTree {
         } else {
             (node.a as usize, n + 1)
         };
-        self.knn_in(near, q, rd, off, h);
+        self.search(near, q, rd, off, c);
         let old = off[ax];
         let rd_far = rd - old * old + diff * diff;
-        if rd_far <= h.bound {
+        if rd_far <= c.bound() {
             off[ax] = diff;
-            self.knn_in(far, q, rd_far, off, h);
+            self.search(far, q, rd_far, off, c);
             off[ax] = old;
+        }
+    }
+}
+
+/// What a query keeps of the points the traversal meets.
+trait Collector {
+    /// Squared distance beyond which nothing is wanted any more.
+    fn bound(&self) -> f64;
+    fn offer(&mut self, index: u32, dist_sq: f64);
+}
+
+/// The nearest point: among equally near ones the first met wins.
+impl Collector for Neighbor {
+    #[inline(always)]
+    fn bound(&self) -> f64 {
+        self.dist_sq
+    }
+    #[inline(always)]
+    fn offer(&mut self, index: u32, dist_sq: f64) {
+        if dist_sq < self.dist_sq || (dist_sq == self.dist_sq && self.index == u32::MAX) {
+            *self = Neighbor { index, dist_sq };
+        }
+    }
+}
+
+impl Collector for Knn<'_> {
+    #[inline(always)]
+    fn bound(&self) -> f64 {
+        self.bound
+    }
+    #[inline(always)]
+    fn offer(&mut self, index: u32, dist_sq: f64) {
+        if dist_sq <= self.bound {
+            self.insert(index, dist_sq);
         }
     }
 }
