@@ -97,6 +97,9 @@ pub struct SimConfig {
     pub rover_model: String,
     /// Drive the world's route (when it has one) instead of `control.path`.
     pub follow_route: bool,
+    /// With `follow_route`: drive the route to its end and back to the start
+    /// (as the paper's data set was taken), instead of one way.
+    pub out_and_back: bool,
     /// IMU frame against base_link, roll, pitch, yaw in degrees (what the
     /// SLAM bias state estimates).
     pub imu_misalignment_deg: [f64; 3],
@@ -114,6 +117,7 @@ impl Default for SimConfig {
             lidar_rate_hz: 10.0,
             rover_model: "physics".into(),
             follow_route: true,
+            out_and_back: true,
             imu_misalignment_deg: [0.0; 3],
             rover: speleo_hal::sim::PhysicsParams::default(),
         }
@@ -229,6 +233,8 @@ pub struct SlamConfig {
     pub inclination_sigma_deg: f64,
     pub estimate_bias: bool,
     pub bias_prior_deg: f64,
+    /// Points one SLAM step visits: the work quantum of the slam task.
+    pub points_per_step: usize,
 }
 
 impl Default for SlamConfig {
@@ -249,6 +255,7 @@ impl Default for SlamConfig {
             inclination_sigma_deg: p.inclination_sigma_deg,
             estimate_bias: p.estimate_bias,
             bias_prior_deg: p.bias_prior_deg,
+            points_per_step: p.points_per_step,
         }
     }
 }
@@ -269,6 +276,7 @@ impl SlamConfig {
             inclination_sigma_deg: self.inclination_sigma_deg,
             estimate_bias: self.estimate_bias,
             bias_prior_deg: self.bias_prior_deg,
+            points_per_step: self.points_per_step,
             ..speleo_slam::graph_slam::SlamParams::default()
         }
     }
@@ -595,6 +603,13 @@ impl Config {
             "100..=1000000",
         )?;
         range("slam.neighbors", sl.neighbors, 1, 6, "1..=6")?;
+        range(
+            "slam.points_per_step",
+            sl.points_per_step,
+            100,
+            1_000_000,
+            "100..=1000000",
+        )?;
         for (key, v) in [
             ("slam.keyframe_distance_m", sl.keyframe_distance_m),
             ("slam.keyframe_angle_deg", sl.keyframe_angle_deg),

@@ -210,7 +210,7 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     cfg.validate()?;
     let world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
     if cfg.sim.follow_route && world.route.len() >= 2 {
-        cfg.control.path = route_in_odometry_frame(&world);
+        cfg.control.path = route_in_odometry_frame(&world, cfg.sim.out_and_back);
         cfg.control.looped = false;
         cfg.validate()?;
     }
@@ -269,18 +269,29 @@ pub fn sim_params(cfg: &Config) -> SimParams {
 }
 
 /// The world's route as waypoints of the scripted path: odometry starts at
-/// the world's start pose, so the route is expressed relative to it
-/// (at most the path capacity; the rest of a long route is dropped).
-fn route_in_odometry_frame(w: &speleo_hal::world::World) -> Vec<[f64; 2]> {
+/// the world's start pose, so the route is expressed relative to it. Out and
+/// back, the route is followed by its reverse down to the start. A route
+/// longer than the path capacity is shortened from its far end (both ways).
+fn route_in_odometry_frame(w: &speleo_hal::world::World, out_and_back: bool) -> Vec<[f64; 2]> {
     let [x0, y0, _, yaw] = w.start;
     let (s, c) = (yaw.sin(), yaw.cos());
-    std::iter::once([0.0, 0.0])
+    let cap = if out_and_back {
+        speleo_control::MAX_WAYPOINTS / 2
+    } else {
+        speleo_control::MAX_WAYPOINTS
+    };
+    let out: Vec<[f64; 2]> = std::iter::once([0.0, 0.0])
         .chain(w.route.iter().map(|p| {
             let (dx, dy) = (p[0] - x0, p[1] - y0);
             [c * dx + s * dy, -s * dx + c * dy]
         }))
-        .take(speleo_control::MAX_WAYPOINTS)
-        .collect()
+        .take(cap)
+        .collect();
+    if !out_and_back {
+        return out;
+    }
+    let back = out.iter().rev().skip(1).copied();
+    out.iter().copied().chain(back).collect()
 }
 
 pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {

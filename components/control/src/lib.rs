@@ -6,7 +6,7 @@
 //! controller never allocates.
 
 /// Most waypoints in one path.
-pub const MAX_WAYPOINTS: usize = 128;
+pub const MAX_WAYPOINTS: usize = 512;
 
 pub type Path = heapless::Vec<[f64; 2], MAX_WAYPOINTS>;
 
@@ -100,7 +100,8 @@ impl PurePursuit {
         if self.done || self.segments() == 0 {
             return stop;
         }
-        // Advance past segments whose end is behind the rover.
+        // Advance past segments whose end is behind the rover or reached (a
+        // hairpin's tip may never be passed: the rover turns short of it).
         loop {
             let (a, b) = self.seg(self.segment);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
@@ -111,12 +112,14 @@ impl PurePursuit {
                 1.0
             };
             let last = !self.looped && self.segment + 1 >= self.segments();
-            if t < 1.0 || last {
+            let reached = libm::hypot(b[0] - x, b[1] - y) < 0.5 * self.p.lookahead_m;
+            if (t < 1.0 && !reached) || last {
                 break;
             }
             self.segment = (self.segment + 1) % self.segments();
         }
-        if !self.looped {
+        // Only on the last segment: a path out and back ends where it starts.
+        if !self.looped && self.segment + 1 >= self.segments() {
             let goal = self.path[self.path.len() - 1];
             if libm::hypot(goal[0] - x, goal[1] - y) < self.p.goal_tolerance_m {
                 self.done = true;
@@ -218,6 +221,17 @@ mod tests {
         let (x, y, _) = drive(&mut pp, 3000);
         assert!(pp.done());
         assert!((x - 4.0).abs() < 0.3 && (y - 3.0).abs() < 0.3, "{x} {y}");
+    }
+
+    #[test]
+    fn an_out_and_back_path_turns_at_its_far_end_and_ends_home() {
+        let out_back = path(&[[0.0, 0.0], [3.0, 0.0], [6.0, 0.5], [3.0, 0.0], [0.0, 0.0]]);
+        let mut pp = PurePursuit::new(params(), out_back, false);
+        // Starting on the goal does not end the path.
+        assert!(pp.command(0.0, 0.0, 0.0).v > 0.0);
+        let (x, y, _) = drive(&mut pp, 6000);
+        assert!(pp.done());
+        assert!(x.abs() < 0.3 && y.abs() < 0.3, "{x} {y}");
     }
 
     #[test]

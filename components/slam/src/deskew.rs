@@ -8,25 +8,41 @@ use crate::lie::Pose;
 /// the first firing) into the frame of the first firing. `pose_at(t)` gives
 /// the sensor pose at `t` seconds after the first firing in any fixed frame;
 /// points whose time it cannot answer are left as they are and counted.
-/// Consecutive points of one firing share a time, so each transform is
-/// computed once per distinct time.
+///
+/// Every laser of an HDL-32E fires at its own instant (1.15 us apart), so
+/// asking for a pose per distinct time would mean one interpolation per
+/// point. Times are instead grouped in slices of `resolution_s`, each moved
+/// with the pose at its middle: with 100 us slices and a rover rocking at
+/// 30 deg/s, no point is off by more than 0.0015 deg (0.5 mm at 20 m).
 pub fn deskew(
     points: &mut [[f64; 3]],
     times_s: &[f32],
+    resolution_s: f64,
     mut pose_at: impl FnMut(f64) -> Option<Pose>,
 ) -> usize {
+    let res = if resolution_s.is_finite() && resolution_s > 0.0 {
+        resolution_s
+    } else {
+        f64::MIN_POSITIVE
+    };
     let Some(first) = pose_at(0.0) else {
         return points.len();
     };
     let first_inv = first.inverse();
     let mut unanswered = 0;
-    let mut last_t = f32::NAN;
+    let mut last_slice = f64::NAN;
     let mut rel = Pose::identity();
     let mut ok = true;
     for (p, &t) in points.iter_mut().zip(times_s) {
-        if t != last_t {
-            last_t = t;
-            match pose_at(t as f64) {
+        let slice = (t as f64 / res).floor();
+        if slice != last_slice {
+            last_slice = slice;
+            let mid = if res == f64::MIN_POSITIVE {
+                t as f64
+            } else {
+                ((slice + 0.5) * res).max(0.0)
+            };
+            match pose_at(mid) {
                 Some(x) => {
                     rel = first_inv.compose(&x);
                     ok = true;
@@ -62,7 +78,7 @@ mod tests {
             pts.push([wall_x - speed * t, 2.0, 0.0]);
             times.push(t as f32);
         }
-        let missed = deskew(&mut pts, &times, |t| {
+        let missed = deskew(&mut pts, &times, 0.0, |t| {
             Some(Pose::new(
                 nalgebra::Matrix3::identity(),
                 Vector3::new(speed * t, 0.0, 0.0),

@@ -16,7 +16,7 @@ use nalgebra::{Matrix3, Matrix6, Vector3};
 
 use crate::factors::{Factor, Robust, Var, VarKind};
 use crate::lie::Pose;
-use crate::registration::gicp::{align, Alignment, GicpParams, PreparedCloud};
+use crate::registration::gicp::{Aligner, Alignment, GicpParams, PreparedCloud};
 use crate::solver::{LmParams, Solver, Step};
 
 /// Settings, from the `[slam]` configuration table.
@@ -55,6 +55,9 @@ pub struct SlamParams {
     pub robust_scale: f64,
     /// LM iterations after each new keyframe.
     pub iterations_per_keyframe: u32,
+    /// Points one step of cloud work visits (downsampling, covariances, a
+    /// part of a GICP pass): bounds the time of a step.
+    pub points_per_step: usize,
     /// Estimate the IMU-to-LiDAR bias (else it is held at the identity).
     pub estimate_bias: bool,
     /// Standard deviation of the bias prior (mounting tolerance), deg.
@@ -83,6 +86,7 @@ impl Default for SlamParams {
             gicp_information_scale: 0.05,
             robust_scale: 3.0,
             iterations_per_keyframe: 6,
+            points_per_step: 1200,
             estimate_bias: true,
             bias_prior_deg: 1.0,
             gicp: GicpParams {
@@ -125,7 +129,11 @@ pub struct Keyframe {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Phase {
     Idle,
-    Prepare,
+    /// Feed the new scan's points from this index into the voxel grid.
+    Gather(usize),
+    /// Finish the downsampling and build the kd-tree.
+    Build,
+    Covariances,
     Register(usize),
     Insert,
     Optimize(u32),
@@ -154,6 +162,8 @@ pub struct GraphSlam {
     clouds: Vec<PreparedCloud>,
     owner: Vec<Option<usize>>,
     next_victim: usize,
+    /// The registration in progress.
+    aligner: Option<Aligner>,
     /// The scan waiting to become a keyframe (base frame).
     pending: Vec<[f64; 3]>,
     pending_kf: Option<Keyframe>,
@@ -178,6 +188,7 @@ impl GraphSlam {
                 .collect(),
             owner: vec![None; slots],
             next_victim: 1,
+            aligner: None,
             pending: Vec::with_capacity(p.max_scan_points * 4),
             pending_kf: None,
             candidates: HVec::new(),
@@ -286,7 +297,7 @@ impl GraphSlam {
             up_imu: up,
             points: 0,
         });
-        self.phase = Phase::Prepare;
+        self.phase = Phase::Gather(0);
         true
     }
 
@@ -294,7 +305,17 @@ impl GraphSlam {
     pub fn step(&mut self) -> bool {
         match self.phase {
             Phase::Idle => return false,
-            Phase::Prepare => self.prepare(),
+            Phase::Gather(from) => self.gather(from),
+            Phase::Build => {
+                self.clouds[0].build();
+                self.owner[0] = None;
+                self.phase = Phase::Covariances;
+            }
+            Phase::Covariances => {
+                if self.clouds[0].estimate_covariances(self.p.points_per_step.max(1)) {
+                    self.select_candidates();
+                }
+            }
             Phase::Register(i) => self.register(i),
             Phase::Insert => self.insert(),
             Phase::Optimize(n) => self.optimize(n),
@@ -307,12 +328,25 @@ impl GraphSlam {
         self.pose(&kf.odom)
     }
 
-    fn prepare(&mut self) {
-        let voxel = self.p.voxel_m;
-        self.clouds[0].prepare(self.pending.iter().copied(), voxel);
-        self.owner[0] = None;
-        // Candidates: the nearest recent keyframes and the best loop.
+    fn gather(&mut self, from: usize) {
+        if from == 0 {
+            self.clouds[0].begin(self.p.voxel_m);
+        }
+        let to = from
+            .saturating_add(self.p.points_per_step.max(1))
+            .min(self.pending.len());
+        self.clouds[0].add(self.pending[from..to].iter().copied());
+        self.phase = if to == self.pending.len() {
+            Phase::Build
+        } else {
+            Phase::Gather(to)
+        };
+    }
+
+    /// Candidates: the nearest recent keyframes and the best loop.
+    fn select_candidates(&mut self) {
         self.candidates.clear();
+        self.aligner = None;
         let Some(kf) = self.pending_kf else {
             self.phase = Phase::Idle;
             return;
@@ -358,25 +392,29 @@ impl GraphSlam {
         self.phase = Phase::Register(0);
     }
 
-    /// A prepared cloud of keyframe `k`: from the cache, else prepared now
-    /// into the least recently filled slot.
-    fn target_slot(&mut self, k: usize) -> usize {
-        if let Some(s) = (1..self.clouds.len()).find(|&s| self.owner[s] == Some(k)) {
-            return s;
-        }
+    /// The cache slot of keyframe `k`'s cloud, if it is there (possibly
+    /// still being prepared).
+    fn cached_slot(&self, k: usize) -> Option<usize> {
+        (1..self.clouds.len()).find(|&s| self.owner[s] == Some(k))
+    }
+
+    /// Start preparing keyframe `k`'s cloud in the least recently filled
+    /// slot: its stored points (already downsampled: every one is kept)
+    /// and the kd-tree; the covariances follow in later steps.
+    fn load_target(&mut self, k: usize) {
         let s = self.next_victim;
         self.next_victim = if s + 1 >= self.clouds.len() { 1 } else { s + 1 };
         let start = k * self.p.max_scan_points;
         let pts = &self.pool[start..start + self.keyframes[k].points];
-        // Keyframe scans are stored already downsampled: keep every point.
-        self.clouds[s].prepare(
-            pts.iter().map(|p| [p[0] as f64, p[1] as f64, p[2] as f64]),
-            0.0,
-        );
+        let cloud = &mut self.clouds[s];
+        cloud.begin(0.0);
+        cloud.add(pts.iter().map(|p| [p[0] as f64, p[1] as f64, p[2] as f64]));
+        cloud.build();
         self.owner[s] = Some(k);
-        s
     }
 
+    /// One bounded part of registering the new scan to candidate `i`: load
+    /// the target, its covariances, then GICP a part of a pass at a time.
     fn register(&mut self, i: usize) {
         if i >= self.candidates.len() {
             self.phase = Phase::Insert;
@@ -387,15 +425,27 @@ impl GraphSlam {
             return;
         };
         let k = self.candidates[i].keyframe;
-        let slot = self.target_slot(k);
+        let Some(slot) = self.cached_slot(k) else {
+            self.load_target(k);
+            return;
+        };
+        let budget = self.p.points_per_step.max(1);
+        if !self.clouds[slot].is_ready() {
+            self.clouds[slot].estimate_covariances(budget);
+            return;
+        }
         let init = self
             .keyframe_pose(k)
             .between(&self.predicted(&kf))
             .to_isometry();
+        let aligner = self.aligner.get_or_insert_with(|| Aligner::new(&init));
         let (src, rest) = self.clouds.split_at_mut(1);
-        let a = align(&src[0], &rest[slot - 1], &init, &self.p.gicp);
+        if !aligner.step(&src[0], &rest[slot - 1], &self.p.gicp, budget) {
+            return;
+        }
+        self.candidates[i].result = Some(aligner.result());
+        self.aligner = None;
         self.stats.registrations += 1;
-        self.candidates[i].result = Some(a);
         self.phase = Phase::Register(i + 1);
     }
 

@@ -11,7 +11,8 @@ use nalgebra::{Isometry3, Matrix6, Translation3, UnitQuaternion, Vector3, Vector
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use speleo_slam::registration::{
-    align, cost, perturb, Alignment, GicpParams, KdTree, Kernel, Neighbor, PreparedCloud, VoxelGrid,
+    align, cost, perturb, Aligner, Alignment, GicpParams, KdTree, Kernel, Neighbor, PreparedCloud,
+    VoxelGrid,
 };
 
 // ---- Allocation counting (per thread: tests run in parallel) ----
@@ -302,6 +303,56 @@ fn solution_solves_the_normal_equations() {
     assert!(newton.norm() < 1e-7, "remaining step {newton}");
 }
 
+fn bits(x: &Alignment) -> Vec<u64> {
+    let m = x.transform.to_homogeneous();
+    let mut v: Vec<u64> = m
+        .iter()
+        .chain(x.hessian.iter())
+        .map(|f| f.to_bits())
+        .collect();
+    v.extend([x.fitness.to_bits(), x.inliers as u64, x.iterations as u64]);
+    v
+}
+
+#[test]
+fn work_cut_into_bounded_parts_gives_the_same_bits() {
+    let pts_t = room(15_000, 0.01, 16);
+    let pts_s = apply(
+        &iso([0.3, -0.1, 0.05], [1.0, -0.5, 4.0]),
+        &room(15_000, 0.01, 17),
+    );
+    let whole_t = prepared(&pts_t, 0.15);
+    let whole_s = prepared(&pts_s, 0.15);
+    let params = GicpParams::default();
+    let whole = align(&whole_s, &whole_t, &Isometry3::identity(), &params);
+    // The same work in parts of 997 points.
+    let parts = |pts: &[[f64; 3]]| {
+        let mut c = PreparedCloud::with_capacity(pts.len());
+        c.begin(0.15);
+        for chunk in pts.chunks(997) {
+            c.add(chunk.iter().copied());
+        }
+        c.build();
+        let mut units = 1;
+        while !c.estimate_covariances(997) {
+            units += 1;
+        }
+        assert!(c.is_ready());
+        assert!(units > 1, "the covariances took several parts");
+        c
+    };
+    let (t, s) = (parts(&pts_t), parts(&pts_s));
+    assert_eq!(t.points(), whole_t.points());
+    assert_eq!(t.covariances(), whole_t.covariances());
+    let mut a = Aligner::new(&Isometry3::identity());
+    let mut steps = 1;
+    while !a.step(&s, &t, &params, 997) {
+        steps += 1;
+    }
+    assert!(steps > whole.iterations as usize, "{steps} steps");
+    assert_eq!(bits(&a.result()), bits(&whole));
+}
+
 #[test]
 fn same_input_gives_bit_identical_results() {
     let pts_t = room(15_000, 0.01, 6);
@@ -326,16 +377,6 @@ fn same_input_gives_bit_identical_results() {
         PreparedCloud::with_capacity(20_000),
     );
     let c = run(&mut t2, &mut s2);
-    let bits = |x: &Alignment| {
-        let m = x.transform.to_homogeneous();
-        let mut v: Vec<u64> = m
-            .iter()
-            .chain(x.hessian.iter())
-            .map(|f| f.to_bits())
-            .collect();
-        v.extend([x.fitness.to_bits(), x.inliers as u64, x.iterations as u64]);
-        v
-    };
     assert_eq!(bits(&a), bits(&b));
     assert_eq!(bits(&a), bits(&c));
 }

@@ -1,4 +1,7 @@
 //! Follows the configured path with pure pursuit and commands wheel speeds.
+//! The rover's pose is the SLAM estimate (the odometry pose corrected by the
+//! pose graph; the odometry pose itself while SLAM is off), so the path stays
+//! tied to the walls while the odometry drifts.
 
 use speleo_control::{PurePursuit, SkidSteer};
 use speleo_scheduler::{Context, Task};
@@ -30,7 +33,7 @@ pub fn yaw_of(q: [f64; 4]) -> f64 {
 
 impl Task<Bus> for ControlTask {
     fn run(&mut self, bus: &mut Bus, cx: &Context) {
-        let Some(pose) = bus.odom.get() else {
+        let Some(pose) = bus.slam.get() else {
             return;
         };
         let p = pose.value;

@@ -1,8 +1,10 @@
-//! Graph SLAM as an anytime task. `run` takes each new LiDAR revolution that
-//! should become a keyframe (moved into the base frame and deskewed with the
-//! odometry history) and publishes the map pose every frame; each `step`
-//! does one bounded unit of the keyframe's work (prepare the cloud, one
-//! registration, insert the factors, one Levenberg-Marquardt iteration).
+//! Graph SLAM as an anytime task. `run` copies each new LiDAR revolution
+//! that should become a keyframe and publishes the map pose every frame;
+//! each `step` does one bounded unit of the keyframe's work: move a part of
+//! the revolution into the base frame and deskew it with the odometry
+//! history, downsample a part, estimate a part's covariances, run a part of
+//! a GICP pass, insert the factors, or one Levenberg-Marquardt iteration.
+//! A unit visits at most `slam.points_per_step` points.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
 use speleo_scheduler::{Context, StepResult, Task};
@@ -11,6 +13,9 @@ use speleo_slam::graph_slam::{GraphSlam, SlamParams};
 use speleo_slam::lie::Pose;
 
 use crate::bus::{Bus, SlamPose};
+
+/// Points within this span of firing times share one deskewing pose.
+const DESKEW_SLICE_S: f64 = 100e-6;
 
 /// Returns closer than this hit the rover itself.
 const MIN_RANGE_M: f32 = 0.6;
@@ -21,9 +26,17 @@ pub struct SlamTask {
     enabled: bool,
     /// LiDAR mount: base <- sensor.
     mount: Pose,
+    /// Points one step moves into the base frame and deskews.
+    points_per_step: usize,
     cloud_seen: u64,
-    points: Vec<[f64; 3]>,
+    /// The revolution taken for a keyframe: sensor-frame points and their
+    /// times, copied as they came...
+    raw: Vec<[f32; 3]>,
     times: Vec<f32>,
+    /// ...and, a part per step, in the base frame at the first firing.
+    points: Vec<[f64; 3]>,
+    /// When and where the staged revolution began.
+    staged: Option<(u64, Pose)>,
     /// Revolutions that could not be placed in the odometry history.
     pub scans_without_odometry: u64,
     pub points_not_deskewed: u64,
@@ -32,12 +45,15 @@ pub struct SlamTask {
 impl SlamTask {
     pub fn new(p: SlamParams, enabled: bool, mount: Pose, max_cloud_points: usize) -> Self {
         SlamTask {
+            points_per_step: p.points_per_step.max(1),
             slam: GraphSlam::new(p),
             enabled,
             mount,
             cloud_seen: 0,
-            points: Vec::with_capacity(max_cloud_points),
+            raw: Vec::with_capacity(max_cloud_points),
             times: Vec::with_capacity(max_cloud_points),
+            points: Vec::with_capacity(max_cloud_points),
+            staged: None,
             scans_without_odometry: 0,
             points_not_deskewed: 0,
         }
@@ -47,12 +63,14 @@ impl SlamTask {
         &self.slam
     }
 
+    /// Stage the newest revolution when it should become a keyframe: only
+    /// a copy here, the work is spread over the steps.
     fn take_cloud(&mut self, bus: &Bus) {
         let Some(c) = bus.cloud.newer_than(self.cloud_seen) else {
             return;
         };
         self.cloud_seen = c.seq;
-        if !self.slam.is_idle() {
+        if !self.slam.is_idle() || self.staged.is_some() {
             return;
         }
         let cloud = &c.value;
@@ -67,29 +85,53 @@ impl SlamTask {
         if !self.slam.wants_keyframe(&odom0) {
             return;
         }
-        self.points.clear();
+        self.raw.clear();
         self.times.clear();
+        self.points.clear();
         for p in &cloud.points {
-            if p.distance < MIN_RANGE_M || self.points.len() == self.points.capacity() {
+            if p.distance < MIN_RANGE_M || self.raw.len() == self.raw.capacity() {
                 continue;
             }
-            let v = self
-                .mount
-                .transform(&Vector3::new(p.x as f64, p.y as f64, p.z as f64));
-            self.points.push([v.x, v.y, v.z]);
+            self.raw.push([p.x, p.y, p.z]);
             self.times.push(p.time);
         }
+        self.staged = Some((t0, odom0));
+    }
+
+    /// Move the next part of the staged revolution into the base frame and
+    /// deskew it; when all of it is done, offer it to SLAM as a keyframe.
+    fn deskew_part(&mut self, bus: &Bus) {
+        let Some((t0, odom0)) = self.staged else {
+            return;
+        };
+        let from = self.points.len();
+        let to = (from + self.points_per_step).min(self.raw.len());
+        for r in &self.raw[from..to] {
+            let v = self
+                .mount
+                .transform(&Vector3::new(r[0] as f64, r[1] as f64, r[2] as f64));
+            self.points.push([v.x, v.y, v.z]);
+        }
         let history = &bus.odom_history;
-        self.points_not_deskewed += deskew(&mut self.points, &self.times, |dt| {
-            history
-                .at(t0 + (dt * 1e9) as u64)
-                .map(|iso: Isometry3<f64>| Pose::from_isometry(&iso))
-        }) as u64;
-        let up = bus.imu.latest().map_or(Vector3::z(), |s| {
-            let [w, x, y, z] = s.value.orientation;
-            let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
-            q.inverse() * Vector3::z()
-        });
+        self.points_not_deskewed += deskew(
+            &mut self.points[from..to],
+            &self.times[from..to],
+            DESKEW_SLICE_S,
+            |dt| {
+                history
+                    .at(t0 + (dt * 1e9) as u64)
+                    .map(|iso: Isometry3<f64>| Pose::from_isometry(&iso))
+            },
+        ) as u64;
+        if to < self.raw.len() {
+            return;
+        }
+        self.staged = None;
+        // Gravity in the base frame at the revolution's first firing. The
+        // MTi's last sample is up to a revolution late, and a legged rover
+        // rocks by degrees within that time; the odometry's attitude is the
+        // MTi's roll and pitch carried to any instant by the gyro.
+        let up = odom0.r.transpose() * Vector3::z();
         self.slam
             .offer_scan(t0, odom0, up, self.points.iter().copied());
     }
@@ -122,8 +164,12 @@ impl Task<Bus> for SlamTask {
         }
     }
 
-    fn step(&mut self, _bus: &mut Bus, _cx: &Context, quantum: u32) -> StepResult {
+    fn step(&mut self, bus: &mut Bus, _cx: &Context, quantum: u32) -> StepResult {
         for _ in 0..quantum.max(1) {
+            if self.staged.is_some() {
+                self.deskew_part(bus);
+                continue;
+            }
             if !self.slam.step() {
                 return StepResult::Idle;
             }

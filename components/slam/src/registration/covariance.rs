@@ -30,14 +30,30 @@ pub fn plane_covariance(n: &Vector3<f64>, eps: f64) -> Matrix3<f64> {
 /// than the tree has points.
 pub fn estimate(tree: &KdTree, k: usize, eps: f64, out: &mut Vec<Matrix3<f64>>) {
     out.clear();
+    estimate_next(tree, k, eps, out, usize::MAX);
+}
+
+/// Continue [`estimate`] in bounded parts: the covariances of the next (at
+/// most) `max_points` points after the `out.len()` already computed.
+/// Returns true when every point has its covariance. The parts together
+/// give the same values as one call.
+pub fn estimate_next(
+    tree: &KdTree,
+    k: usize,
+    eps: f64,
+    out: &mut Vec<Matrix3<f64>>,
+    max_points: usize,
+) -> bool {
     let mut nn = [Neighbor {
         index: 0,
         dist_sq: 0.0,
     }; MAX_K];
     let nn = &mut nn[..k.clamp(1, MAX_K)];
     let pts = tree.points();
+    let start = out.len().min(pts.len());
+    let end = start.saturating_add(max_points).min(pts.len());
     let mut prev_found = 0;
-    for p in pts {
+    for p in &pts[start..end] {
         // Why seed the search radius: the previous point (its tree
         // neighbour, usually close) has k distinct neighbours, so the k-th
         // nearest of `p` is no farther than the farthest of them. That
@@ -76,6 +92,7 @@ pub fn estimate(tree: &KdTree, k: usize, eps: f64, out: &mut Vec<Matrix3<f64>>) 
         }
         out.push(plane_covariance(&smallest_eigenvector(&c), eps));
     }
+    end == pts.len()
 }
 
 #[inline(always)]

@@ -142,14 +142,51 @@ impl PreparedCloud {
         points: impl IntoIterator<Item = [f64; 3]>,
         voxel_m: f64,
     ) -> PrepareStats {
-        let voxel = self.grid.downsample(points, voxel_m);
+        self.begin(voxel_m);
+        self.add(points);
+        self.build();
+        while !self.estimate_covariances(usize::MAX) {}
+        self.stats
+    }
+
+    /// [`prepare`](Self::prepare) in bounded parts: `begin`, any number of
+    /// `add`, `build` (the kd-tree), then `estimate_covariances` until it
+    /// returns true. Same result as one `prepare` of all the parts.
+    pub fn begin(&mut self, voxel_m: f64) {
+        self.grid.begin(voxel_m);
+        self.covs.clear();
+    }
+
+    pub fn add(&mut self, points: impl IntoIterator<Item = [f64; 3]>) {
+        self.grid.add(points);
+    }
+
+    /// Finish the downsampling and build the kd-tree.
+    pub fn build(&mut self) {
+        let voxel = self.grid.finish();
         self.tree.build(self.grid.points());
-        covariance::estimate(&self.tree, self.neighbors, PLANE_EPSILON, &mut self.covs);
+        self.covs.clear();
         self.stats = PrepareStats {
             voxel,
             points: self.tree.len(),
         };
-        self.stats
+    }
+
+    /// Covariances of at most `max_points` more points; true when all are
+    /// done (the cloud is ready for [`align`]).
+    pub fn estimate_covariances(&mut self, max_points: usize) -> bool {
+        covariance::estimate_next(
+            &self.tree,
+            self.neighbors,
+            PLANE_EPSILON,
+            &mut self.covs,
+            max_points,
+        )
+    }
+
+    /// Every point has its covariance.
+    pub fn is_ready(&self) -> bool {
+        self.covs.len() == self.tree.len()
     }
 
     pub fn capacity(&self) -> usize {
@@ -252,6 +289,61 @@ fn inverse_sym(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     ))
 }
 
+/// Partial sums of one linearisation pass over the source, accumulated in
+/// source order so that a pass split into parts gives the same bits.
+#[derive(Clone, Copy, Debug)]
+struct Accumulator {
+    htt: Matrix3<f64>,
+    htp: Matrix3<f64>,
+    hpp: Matrix3<f64>,
+    bt: Vector3<f64>,
+    bp: Vector3<f64>,
+    cost: f64,
+    inliers: usize,
+    sum_dist_sq: f64,
+    /// The previous source point's match (source points are in tree order,
+    /// so consecutive ones are close): its distance bounds the search.
+    prev: Option<usize>,
+    /// Next source point to visit.
+    next: usize,
+}
+
+impl Accumulator {
+    fn new() -> Self {
+        Accumulator {
+            htt: Matrix3::zeros(),
+            htp: Matrix3::zeros(),
+            hpp: Matrix3::zeros(),
+            bt: Vector3::zeros(),
+            bp: Vector3::zeros(),
+            cost: 0.0,
+            inliers: 0,
+            sum_dist_sq: 0.0,
+            prev: None,
+            next: 0,
+        }
+    }
+
+    fn finish(&self) -> Linearization {
+        let mut h = Matrix6::zeros();
+        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&self.htt);
+        h.fixed_view_mut::<3, 3>(0, 3).copy_from(&self.htp);
+        h.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&self.htp.transpose());
+        h.fixed_view_mut::<3, 3>(3, 3).copy_from(&self.hpp);
+        let mut b = Vector6::zeros();
+        b.fixed_rows_mut::<3>(0).copy_from(&self.bt);
+        b.fixed_rows_mut::<3>(3).copy_from(&self.bp);
+        Linearization {
+            h,
+            b,
+            cost: 0.5 * self.cost,
+            inliers: self.inliers,
+            sum_dist_sq: self.sum_dist_sq,
+        }
+    }
+}
+
 /// Nearest neighbours and the (reweighted) normal equations at `tf`.
 /// Source points in tree order, fixed summation order: reproducible bits.
 fn linearize(
@@ -260,6 +352,21 @@ fn linearize(
     tf: &Isometry3<f64>,
     params: &GicpParams,
 ) -> Linearization {
+    let mut acc = Accumulator::new();
+    accumulate(source, target, tf, params, &mut acc, usize::MAX);
+    acc.finish()
+}
+
+/// Add at most `max_points` more source points to the pass in `acc`;
+/// true when the pass has visited every source point.
+fn accumulate(
+    source: &PreparedCloud,
+    target: &PreparedCloud,
+    tf: &Isometry3<f64>,
+    params: &GicpParams,
+    acc: &mut Accumulator,
+    max_points: usize,
+) -> bool {
     let r = tf.rotation.to_rotation_matrix();
     let rm = r.matrix();
     let rt = rm.transpose();
@@ -267,17 +374,16 @@ fn linearize(
     let max_sq = params.max_correspondence_m * params.max_correspondence_m;
     let tpts = target.points();
     let tcov = target.covariances();
-    let (mut htt, mut htp, mut hpp) = (Matrix3::zeros(), Matrix3::zeros(), Matrix3::zeros());
-    let (mut bt, mut bp) = (Vector3::zeros(), Vector3::zeros());
-    let (mut cost, mut inliers, mut sum_dist_sq) = (0.0, 0usize, 0.0);
-    // The previous source point's match (source points are in tree order,
-    // so consecutive ones are close): its distance bounds the search.
-    let mut prev: Option<usize> = None;
-    for (p, cs) in source.points().iter().zip(source.covariances()) {
+    let n = source.len();
+    let start = acc.next.min(n);
+    let end = start.saturating_add(max_points).min(n);
+    let sp = &source.points()[start..end];
+    let sc = &source.covariances()[start..end];
+    for (p, cs) in sp.iter().zip(sc) {
         let pv = Vector3::new(p[0], p[1], p[2]);
         let x = rm * pv + t;
         let xa = [x.x, x.y, x.z];
-        let bound = match prev {
+        let bound = match acc.prev {
             Some(j) => {
                 let q = &tpts[j];
                 let d = (q[0] - xa[0]).powi(2) + (q[1] - xa[1]).powi(2) + (q[2] - xa[2]).powi(2);
@@ -292,10 +398,10 @@ fn linearize(
             r => r,
         };
         let Some(nn) = found else {
-            prev = None;
+            acc.prev = None;
             continue;
         };
-        prev = Some(nn.index as usize);
+        acc.prev = Some(nn.index as usize);
         let j = nn.index as usize;
         let q = &tpts[j];
         // Everything in the source frame: residual e = p - R^T (q - t) and
@@ -310,34 +416,21 @@ fn linearize(
         if !(rho.is_finite() && k.is_finite()) {
             continue;
         }
-        inliers += 1;
-        sum_dist_sq += nn.dist_sq;
-        cost += rho;
+        acc.inliers += 1;
+        acc.sum_dist_sq += nn.dist_sq;
+        acc.cost += rho;
         // J = [I, -[p]x]: H += k J^T W J, b += k J^T W e.
         let ph = hat(&pv);
         let kw = w * k;
         let kwp = kw * ph;
-        htt += kw;
-        htp -= kwp;
-        hpp -= ph * kwp;
-        bt += we * k;
-        bp += ph * we * k;
+        acc.htt += kw;
+        acc.htp -= kwp;
+        acc.hpp -= ph * kwp;
+        acc.bt += we * k;
+        acc.bp += ph * we * k;
     }
-    let mut h = Matrix6::zeros();
-    h.fixed_view_mut::<3, 3>(0, 0).copy_from(&htt);
-    h.fixed_view_mut::<3, 3>(0, 3).copy_from(&htp);
-    h.fixed_view_mut::<3, 3>(3, 0).copy_from(&htp.transpose());
-    h.fixed_view_mut::<3, 3>(3, 3).copy_from(&hpp);
-    let mut b = Vector6::zeros();
-    b.fixed_rows_mut::<3>(0).copy_from(&bt);
-    b.fixed_rows_mut::<3>(3).copy_from(&bp);
-    Linearization {
-        h,
-        b,
-        cost: 0.5 * cost,
-        inliers,
-        sum_dist_sq,
-    }
+    acc.next = end;
+    end == n
 }
 
 /// `T (dt, Exp(phi))`: the perturbation of [`Alignment::hessian`].
@@ -375,22 +468,83 @@ pub fn align(
     init: &Isometry3<f64>,
     params: &GicpParams,
 ) -> Alignment {
-    let mut out = Alignment {
-        transform: *init,
-        iterations: 0,
-        converged: false,
-        inliers: 0,
-        fitness: 0.0,
-        inlier_fraction: 0.0,
-        hessian: Matrix6::zeros(),
-    };
-    let max_d = params.max_correspondence_m;
-    if source.is_empty() || target.is_empty() || max_d.is_nan() || max_d <= 0.0 {
-        return out;
+    let mut a = Aligner::new(init);
+    while !a.step(source, target, params, usize::MAX) {}
+    a.result()
+}
+
+/// [`align`] in bounded units of work: each [`step`](Aligner::step) visits
+/// at most a given number of source points, and a Gauss-Newton update
+/// follows every complete pass. The steps together give the same bits as
+/// one `align`, however the work is cut.
+#[derive(Clone, Copy, Debug)]
+pub struct Aligner {
+    tf: Isometry3<f64>,
+    out: Alignment,
+    acc: Accumulator,
+    done: bool,
+}
+
+impl Aligner {
+    pub fn new(init: &Isometry3<f64>) -> Self {
+        Aligner {
+            tf: *init,
+            out: Alignment {
+                transform: *init,
+                iterations: 0,
+                converged: false,
+                inliers: 0,
+                fitness: 0.0,
+                inlier_fraction: 0.0,
+                hessian: Matrix6::zeros(),
+            },
+            acc: Accumulator::new(),
+            done: false,
+        }
     }
-    let mut tf = *init;
-    for _ in 0..params.max_iterations {
-        let lin = linearize(source, target, &tf, params);
+
+    pub fn is_done(&self) -> bool {
+        self.done
+    }
+
+    /// The alignment so far (final once [`is_done`](Self::is_done)).
+    pub fn result(&self) -> Alignment {
+        self.out
+    }
+
+    /// Visit at most `max_points` source points; true when finished.
+    pub fn step(
+        &mut self,
+        source: &PreparedCloud,
+        target: &PreparedCloud,
+        params: &GicpParams,
+        max_points: usize,
+    ) -> bool {
+        if self.done {
+            return true;
+        }
+        let max_d = params.max_correspondence_m;
+        if source.is_empty()
+            || target.is_empty()
+            || max_d.is_nan()
+            || max_d <= 0.0
+            || self.out.iterations >= params.max_iterations
+        {
+            self.done = true;
+            return true;
+        }
+        if !accumulate(source, target, &self.tf, params, &mut self.acc, max_points) {
+            return false;
+        }
+        let lin = self.acc.finish();
+        self.acc = Accumulator::new();
+        self.done = self.update(&lin, source.len(), params);
+        self.done
+    }
+
+    /// The Gauss-Newton update after a complete pass; true when finished.
+    fn update(&mut self, lin: &Linearization, source_len: usize, params: &GicpParams) -> bool {
+        let out = &mut self.out;
         out.iterations += 1;
         out.inliers = lin.inliers;
         out.fitness = if lin.inliers > 0 {
@@ -398,27 +552,27 @@ pub fn align(
         } else {
             0.0
         };
-        out.inlier_fraction = lin.inliers as f64 / source.len() as f64;
+        out.inlier_fraction = lin.inliers as f64 / source_len as f64;
         out.hessian = lin.h;
         if lin.inliers == 0 {
-            break;
+            return true;
         }
         let damped = lin.h + Matrix6::identity() * params.damping;
         let Some(chol) = damped.cholesky() else {
-            break;
+            return true;
         };
         let delta = -chol.solve(&lin.b);
         if !delta.iter().all(|v| v.is_finite()) {
-            break;
+            return true;
         }
-        tf = perturb(&tf, &delta);
-        out.transform = tf;
+        self.tf = perturb(&self.tf, &delta);
+        out.transform = self.tf;
         let dt = delta.fixed_rows::<3>(0).norm();
         let dphi = delta.fixed_rows::<3>(3).norm();
         if dt < params.translation_eps_m && dphi < params.rotation_eps_rad {
             out.converged = true;
-            break;
+            return true;
         }
+        out.iterations >= params.max_iterations
     }
-    out
 }

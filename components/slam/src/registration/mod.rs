@@ -12,6 +12,8 @@ pub mod gicp;
 pub mod kdtree;
 pub mod voxel;
 
-pub use gicp::{align, cost, perturb, Alignment, GicpParams, Kernel, PrepareStats, PreparedCloud};
+pub use gicp::{
+    align, cost, perturb, Aligner, Alignment, GicpParams, Kernel, PrepareStats, PreparedCloud,
+};
 pub use kdtree::{KdTree, Neighbor};
 pub use voxel::{VoxelGrid, VoxelStats};

@@ -38,6 +38,10 @@ pub struct VoxelGrid {
     /// Coordinate sums per voxel, then centroids after `downsample`.
     sums: Vec<[f64; 3]>,
     counts: Vec<u32>,
+    /// The fill in progress (between `begin` and `finish`).
+    inv: f64,
+    keep_all: bool,
+    stats: VoxelStats,
 }
 
 impl VoxelGrid {
@@ -53,6 +57,9 @@ impl VoxelGrid {
             keys: Vec::with_capacity(max_points),
             sums: Vec::with_capacity(max_points),
             counts: Vec::with_capacity(max_points),
+            inv: 0.0,
+            keep_all: true,
+            stats: VoxelStats::default(),
         }
     }
 
@@ -76,14 +83,30 @@ impl VoxelGrid {
         points: impl IntoIterator<Item = [f64; 3]>,
         voxel_m: f64,
     ) -> VoxelStats {
+        self.begin(voxel_m);
+        self.add(points);
+        self.finish()
+    }
+
+    /// Start a fill in parts: [`begin`](Self::begin), any number of
+    /// [`add`](Self::add), then [`finish`](Self::finish) give what one
+    /// [`downsample`](Self::downsample) of all the parts in order gives, so a
+    /// large cloud can be spread over bounded units of work.
+    pub fn begin(&mut self, voxel_m: f64) {
         self.table.fill(EMPTY);
         self.keys.clear();
         self.sums.clear();
         self.counts.clear();
-        let mut st = VoxelStats::default();
-        let keep_all = !(voxel_m.is_finite() && voxel_m > 0.0);
-        let inv = if keep_all { 0.0 } else { 1.0 / voxel_m };
+        self.stats = VoxelStats::default();
+        self.keep_all = !(voxel_m.is_finite() && voxel_m > 0.0);
+        self.inv = if self.keep_all { 0.0 } else { 1.0 / voxel_m };
+    }
+
+    /// Add points to the fill begun by [`begin`](Self::begin).
+    pub fn add(&mut self, points: impl IntoIterator<Item = [f64; 3]>) {
         let mask = self.table.len() - 1;
+        let (inv, keep_all) = (self.inv, self.keep_all);
+        let st = &mut self.stats;
         for p in points {
             st.input += 1;
             if !(p[0].is_finite() && p[1].is_finite() && p[2].is_finite()) {
@@ -129,14 +152,18 @@ impl VoxelGrid {
                 slot = (slot + 1) & mask;
             }
         }
-        if !keep_all {
+    }
+
+    /// End the fill: sums become centroids.
+    pub fn finish(&mut self) -> VoxelStats {
+        if !self.keep_all {
             for (s, &n) in self.sums.iter_mut().zip(&self.counts) {
                 let k = 1.0 / n as f64;
                 *s = [s[0] * k, s[1] * k, s[2] * k];
             }
         }
-        st.output = self.sums.len();
-        st
+        self.stats.output = self.sums.len();
+        self.stats
     }
 }
 
