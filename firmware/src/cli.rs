@@ -193,6 +193,10 @@ pub struct SimArgs {
     /// Configuration file; values not given keep their defaults.
     #[arg(long, value_name = "FILE.toml")]
     pub config: Option<PathBuf>,
+    /// Write the SLAM keyframe poses (world frame, TUM format) here, and
+    /// the true poses at the same times beside it as NAME.truth.EXT.
+    #[arg(long, value_name = "OUT.tum")]
+    pub trajectory: Option<PathBuf>,
     #[command(flatten)]
     pub out: Outputs,
 }

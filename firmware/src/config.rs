@@ -100,11 +100,29 @@ pub struct SimConfig {
     /// With `follow_route`: drive the route to its end and back to the start
     /// (as the paper's data set was taken), instead of one way.
     pub out_and_back: bool,
+    /// With `follow_route`: drive only this much of the route, m (0: all).
+    pub route_length_m: f64,
     /// IMU frame against base_link, roll, pitch, yaw in degrees (what the
     /// SLAM bias state estimates).
     pub imu_misalignment_deg: [f64; 3],
+    /// Fault injection: a wrong loop closure handed to SLAM.
+    pub false_loop_closure: Option<FalseLoopClosure>,
     /// The physics rover's build.
     pub rover: speleo_hal::sim::PhysicsParams,
+}
+
+/// A loop closure that claims keyframe `newer` sits at `offset_m` and
+/// `yaw_deg` from where SLAM puts it relative to keyframe `older`, with the
+/// confidence of a real registration: perceptual aliasing, as a self-similar
+/// tube invites. Added once both keyframes exist.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FalseLoopClosure {
+    pub older: usize,
+    pub newer: usize,
+    pub offset_m: [f64; 3],
+    #[serde(default)]
+    pub yaw_deg: f64,
 }
 
 impl Default for SimConfig {
@@ -118,7 +136,9 @@ impl Default for SimConfig {
             rover_model: "physics".into(),
             follow_route: true,
             out_and_back: true,
+            route_length_m: 0.0,
             imu_misalignment_deg: [0.0; 3],
+            false_loop_closure: None,
             rover: speleo_hal::sim::PhysicsParams::default(),
         }
     }
@@ -229,7 +249,10 @@ pub struct SlamConfig {
     pub neighbors: usize,
     pub loop_radius_m: f64,
     pub loop_min_gap: usize,
+    pub loop_verify_distance_m: f64,
     pub loop_max_fitness_m: f64,
+    pub loop_min_inlier_fraction: f64,
+    pub odom_sigma_rad_per_s: f64,
     pub inclination_sigma_deg: f64,
     pub estimate_bias: bool,
     pub bias_prior_deg: f64,
@@ -251,7 +274,10 @@ impl Default for SlamConfig {
             neighbors: p.neighbors,
             loop_radius_m: p.loop_radius_m,
             loop_min_gap: p.loop_min_gap,
+            loop_verify_distance_m: p.loop_verify_distance_m,
             loop_max_fitness_m: p.loop_max_fitness_m,
+            loop_min_inlier_fraction: p.loop_min_inlier_fraction,
+            odom_sigma_rad_per_s: p.odom_sigma_rad_per_s,
             inclination_sigma_deg: p.inclination_sigma_deg,
             estimate_bias: p.estimate_bias,
             bias_prior_deg: p.bias_prior_deg,
@@ -272,7 +298,10 @@ impl SlamConfig {
             neighbors: self.neighbors,
             loop_radius_m: self.loop_radius_m,
             loop_min_gap: self.loop_min_gap,
+            loop_verify_distance_m: self.loop_verify_distance_m,
             loop_max_fitness_m: self.loop_max_fitness_m,
+            loop_min_inlier_fraction: self.loop_min_inlier_fraction,
+            odom_sigma_rad_per_s: self.odom_sigma_rad_per_s,
             inclination_sigma_deg: self.inclination_sigma_deg,
             estimate_bias: self.estimate_bias,
             bias_prior_deg: self.bias_prior_deg,
@@ -458,6 +487,13 @@ impl Config {
         let s = &self.sim;
         range("sim.duration_s", s.duration_s, 0.0, 1.0e7, "0..=10000000")?;
         range("sim.lidar_rate_hz", s.lidar_rate_hz, 5.0, 20.0, "5..=20")?;
+        range(
+            "sim.route_length_m",
+            s.route_length_m,
+            0.0,
+            1.0e6,
+            "0..=1000000",
+        )?;
         if s.world.is_empty() {
             return Err(ConfigError::Invalid {
                 key: "sim.world".into(),
@@ -477,6 +513,30 @@ impl Config {
                 -30.0,
                 30.0,
                 "-30..=30",
+            )?;
+        }
+        if let Some(f) = &s.false_loop_closure {
+            if f.older >= f.newer {
+                return Err(ConfigError::Invalid {
+                    key: "sim.false_loop_closure".into(),
+                    why: format!("older ({}) must come before newer ({})", f.older, f.newer),
+                });
+            }
+            for (k, v) in ["x", "y", "z"].iter().zip(f.offset_m) {
+                range(
+                    &format!("sim.false_loop_closure.offset_m ({k})"),
+                    v,
+                    -1000.0,
+                    1000.0,
+                    "-1000..=1000",
+                )?;
+            }
+            range(
+                "sim.false_loop_closure.yaw_deg",
+                f.yaw_deg,
+                -180.0,
+                180.0,
+                "-180..=180",
             )?;
         }
         s.rover.validate().map_err(|why| ConfigError::Invalid {
@@ -604,6 +664,13 @@ impl Config {
         )?;
         range("slam.neighbors", sl.neighbors, 1, 6, "1..=6")?;
         range(
+            "slam.loop_min_inlier_fraction",
+            sl.loop_min_inlier_fraction,
+            0.0,
+            1.0,
+            "0..=1",
+        )?;
+        range(
             "slam.points_per_step",
             sl.points_per_step,
             100,
@@ -615,7 +682,10 @@ impl Config {
             ("slam.keyframe_angle_deg", sl.keyframe_angle_deg),
             ("slam.voxel_m", sl.voxel_m),
             ("slam.loop_radius_m", sl.loop_radius_m),
+            ("slam.loop_verify_distance_m", sl.loop_verify_distance_m),
             ("slam.loop_max_fitness_m", sl.loop_max_fitness_m),
+            ("slam.loop_min_inlier_fraction", sl.loop_min_inlier_fraction),
+            ("slam.odom_sigma_rad_per_s", sl.odom_sigma_rad_per_s),
             ("slam.inclination_sigma_deg", sl.inclination_sigma_deg),
             ("slam.bias_prior_deg", sl.bias_prior_deg),
         ] {

@@ -176,6 +176,9 @@ pub fn run<C: FrameClock>(
         mount_pose(cfg),
         cfg.lidar.max_points_per_frame as usize,
     );
+    if let Some(f) = &cfg.sim.false_loop_closure {
+        t_slam.inject_false_loop(f.clone());
+    }
     let mut t_control = control::ControlTask::new(
         follower(cfg),
         SkidSteer {
@@ -271,7 +274,8 @@ pub fn run<C: FrameClock>(
                 truth,
                 &mut odom_origin,
             );
-            track.samples.push((f.time_ns, truth.get().position));
+            let g = truth.get();
+            track.samples.push((f.time_ns, g.position, g.orientation));
         }
         if (f.frame + 1) % telemetry_every == 0 {
             record_telemetry(&mut tap.borrow_mut(), &exec, f.frame, f.time_ns);

@@ -210,7 +210,8 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     cfg.validate()?;
     let world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
     if cfg.sim.follow_route && world.route.len() >= 2 {
-        cfg.control.path = route_in_odometry_frame(&world, cfg.sim.out_and_back);
+        cfg.control.path =
+            route_in_odometry_frame(&world, cfg.sim.out_and_back, cfg.sim.route_length_m);
         cfg.control.looped = false;
         cfg.validate()?;
     }
@@ -234,6 +235,11 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         progress,
     )?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
+    if let Some(path) = &a.trajectory {
+        let rows = result.slam.as_ref().map_or(&[][..], |s| &s.trajectory);
+        crate::slam_figures::write_tum(path, rows)
+            .map_err(|e| format!("writing {}: {e}", path.display()))?;
+    }
     print_summary(&result);
     Ok(ExitCode::SUCCESS)
 }
@@ -272,7 +278,11 @@ pub fn sim_params(cfg: &Config) -> SimParams {
 /// the world's start pose, so the route is expressed relative to it. Out and
 /// back, the route is followed by its reverse down to the start. A route
 /// longer than the path capacity is shortened from its far end (both ways).
-fn route_in_odometry_frame(w: &speleo_hal::world::World, out_and_back: bool) -> Vec<[f64; 2]> {
+fn route_in_odometry_frame(
+    w: &speleo_hal::world::World,
+    out_and_back: bool,
+    length_m: f64,
+) -> Vec<[f64; 2]> {
     let [x0, y0, _, yaw] = w.start;
     let (s, c) = (yaw.sin(), yaw.cos());
     let cap = if out_and_back {
@@ -280,11 +290,18 @@ fn route_in_odometry_frame(w: &speleo_hal::world::World, out_and_back: bool) -> 
     } else {
         speleo_control::MAX_WAYPOINTS
     };
+    let mut travelled = 0.0;
+    let mut last = [0.0, 0.0];
     let out: Vec<[f64; 2]> = std::iter::once([0.0, 0.0])
         .chain(w.route.iter().map(|p| {
             let (dx, dy) = (p[0] - x0, p[1] - y0);
             [c * dx + s * dy, -s * dx + c * dy]
         }))
+        .take_while(|p| {
+            travelled += (p[0] - last[0]).hypot(p[1] - last[1]);
+            last = *p;
+            length_m <= 0.0 || travelled <= length_m
+        })
         .take(cap)
         .collect();
     if !out_and_back {

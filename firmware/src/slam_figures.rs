@@ -4,9 +4,10 @@
 use serde::Serialize;
 use speleo_slam::graph_slam::{GraphSlam, SlamStats};
 
-/// Ground-truth positions (world frame) by executive time, one per frame.
+/// Ground-truth poses (world frame) by executive time, one per frame:
+/// position and orientation (w, x, y, z).
 pub struct TruthTrack {
-    pub samples: Vec<(u64, [f64; 3])>,
+    pub samples: Vec<(u64, [f64; 3], [f64; 4])>,
     /// world <- odom: the odometry frame's origin and heading in the world.
     pub odom_origin: Option<([f64; 3], f64)>,
 }
@@ -19,16 +20,25 @@ impl TruthTrack {
         }
     }
 
-    /// Linear interpolation at `t_ns`, `None` outside the track.
-    fn at(&self, t_ns: u64) -> Option<[f64; 3]> {
+    /// Interpolated pose at `t_ns` (linear position, normalised linear
+    /// quaternion: frames are a millisecond apart), `None` outside the track.
+    fn at(&self, t_ns: u64) -> Option<([f64; 3], [f64; 4])> {
         let i = self.samples.partition_point(|s| s.0 <= t_ns);
         if i == 0 || i >= self.samples.len() {
             return None;
         }
-        let (t0, a) = self.samples[i - 1];
-        let (t1, b) = self.samples[i];
+        let (t0, a, qa) = self.samples[i - 1];
+        let (t1, b, mut qb) = self.samples[i];
         let f = (t_ns - t0) as f64 / (t1 - t0).max(1) as f64;
-        Some([0, 1, 2].map(|k| a[k] + f * (b[k] - a[k])))
+        if (0..4).map(|k| qa[k] * qb[k]).sum::<f64>() < 0.0 {
+            qb = qb.map(|c| -c);
+        }
+        let q = [0, 1, 2, 3].map(|k| qa[k] + f * (qb[k] - qa[k]));
+        let n = q.iter().map(|c| c * c).sum::<f64>().sqrt().max(1e-12);
+        Some((
+            [0, 1, 2].map(|k| a[k] + f * (b[k] - a[k])),
+            q.map(|c| c / n),
+        ))
     }
 }
 
@@ -41,8 +51,12 @@ pub struct SlamFigures {
     pub registrations_rejected: u64,
     pub lm_iterations: u64,
     pub frozen_keyframes: u64,
+    /// Loop closures added from outside the pipeline (injected faults).
+    pub external_loop_closures: u64,
     pub keyframes_refused: u64,
     pub scans_busy: u64,
+    /// Scan points beyond a keyframe's voxel capacity.
+    pub scan_points_dropped: u64,
     /// Angle of the estimated IMU-to-LiDAR bias rotation.
     pub bias_deg: f64,
     /// Against ground truth (simulation only): keyframe positions.
@@ -55,6 +69,20 @@ pub struct SlamFigures {
     /// Tilt between the estimated bias and the simulated IMU misalignment.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bias_error_deg: Option<f64>,
+    /// Keyframe poses in the world frame (simulation) or the map frame,
+    /// with the true pose at the same time where known: for `--trajectory`.
+    #[serde(skip)]
+    pub trajectory: Vec<KeyframeTrajectory>,
+}
+
+/// One keyframe: when, where SLAM put it and where it truly was.
+#[derive(Clone, Copy, Debug)]
+pub struct KeyframeTrajectory {
+    pub stamp_ns: u64,
+    pub position: [f64; 3],
+    /// Orientation, (w, x, y, z).
+    pub orientation: [f64; 4],
+    pub truth: Option<([f64; 3], [f64; 4])>,
 }
 
 pub fn figures(
@@ -73,8 +101,10 @@ pub fn figures(
         registrations_rejected: s.registrations_rejected,
         lm_iterations: s.lm_iterations,
         frozen_keyframes: s.frozen,
+        external_loop_closures: s.external_loop_closures,
         keyframes_refused: s.keyframes_refused,
         scans_busy: s.scans_busy,
+        scan_points_dropped: s.scan_points_dropped,
         bias_deg: angle(&b),
         ..SlamFigures::default()
     };
@@ -90,19 +120,29 @@ pub fn figures(
         let up_b = b.transpose() * nalgebra::Vector3::z();
         f.bias_error_deg = Some(up_m.angle(&up_b).to_degrees());
     }
-    let Some(track) = truth else { return f };
-    let Some((origin, yaw)) = track.odom_origin else {
-        return f;
-    };
-    let rz = nalgebra::Rotation3::from_euler_angles(0.0, 0.0, yaw);
+    // The map frame is the odometry frame; in simulation it sits at the
+    // first true pose, level, heading as the rover heads.
+    let (origin, yaw) = truth.and_then(|t| t.odom_origin).unwrap_or(([0.0; 3], 0.0));
+    let world_from_map = nalgebra::Isometry3::from_parts(
+        nalgebra::Translation3::from(nalgebra::Vector3::from(origin)),
+        nalgebra::UnitQuaternion::from_euler_angles(0.0, 0.0, yaw),
+    );
     let mut errs = Vec::new();
     let mut alt = Vec::new();
     for (k, kf) in slam.keyframes().iter().enumerate() {
-        let Some(t) = track.at(kf.stamp_ns) else {
-            continue;
-        };
-        let est = rz * slam.keyframe_pose(k).t + nalgebra::Vector3::from(origin);
-        let d = est - nalgebra::Vector3::from(t);
+        let est = world_from_map * slam.keyframe_pose(k).to_isometry();
+        let q = est.rotation.into_inner();
+        let truth = truth
+            .filter(|t| t.odom_origin.is_some())
+            .and_then(|t| t.at(kf.stamp_ns));
+        f.trajectory.push(KeyframeTrajectory {
+            stamp_ns: kf.stamp_ns,
+            position: est.translation.vector.into(),
+            orientation: [q.w, q.i, q.j, q.k],
+            truth,
+        });
+        let Some((t, _)) = truth else { continue };
+        let d = est.translation.vector - nalgebra::Vector3::from(t);
         errs.push(d.norm());
         alt.push(d.z.abs());
     }
@@ -113,4 +153,48 @@ pub fn figures(
         f.altitude_err_mean_m = Some(alt.iter().sum::<f64>() / n);
     }
     f
+}
+
+/// Writes the keyframe trajectory in the TUM format (`time x y z qx qy qz
+/// qw`, seconds) to `path` and, where the truth is known, the true poses at
+/// the same times beside it (`NAME.truth.EXT`), ready for trajectory
+/// evaluation tools.
+pub fn write_tum(path: &std::path::Path, rows: &[KeyframeTrajectory]) -> std::io::Result<()> {
+    use std::io::Write;
+    let line = |w: &mut dyn Write, t: u64, p: [f64; 3], q: [f64; 4]| {
+        writeln!(
+            w,
+            "{:.9} {:.6} {:.6} {:.6} {:.9} {:.9} {:.9} {:.9}",
+            t as f64 * 1e-9,
+            p[0],
+            p[1],
+            p[2],
+            q[1],
+            q[2],
+            q[3],
+            q[0]
+        )
+    };
+    let mut est = std::io::BufWriter::new(std::fs::File::create(path)?);
+    for r in rows {
+        line(&mut est, r.stamp_ns, r.position, r.orientation)?;
+    }
+    est.flush()?;
+    if rows.iter().any(|r| r.truth.is_some()) {
+        let stem = path
+            .file_stem()
+            .map_or("trajectory".into(), |s| s.to_string_lossy());
+        let name = match path.extension() {
+            Some(e) => format!("{stem}.truth.{}", e.to_string_lossy()),
+            None => format!("{stem}.truth"),
+        };
+        let mut gt = std::io::BufWriter::new(std::fs::File::create(path.with_file_name(name))?);
+        for r in rows {
+            if let Some((p, q)) = r.truth {
+                line(&mut gt, r.stamp_ns, p, q)?;
+            }
+        }
+        gt.flush()?;
+    }
+    Ok(())
 }

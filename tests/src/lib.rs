@@ -20,12 +20,25 @@ pub fn sim_with_config(
     record: Option<&Path>,
     report: Option<&Path>,
 ) -> ExitCode {
+    sim_with_trajectory(seed, duration_s, config, record, report, None)
+}
+
+/// Run `speleo sim` in this process, writing SLAM's keyframe trajectory.
+pub fn sim_with_trajectory(
+    seed: u64,
+    duration_s: f64,
+    config: Option<&Path>,
+    record: Option<&Path>,
+    report: Option<&Path>,
+    trajectory: Option<&Path>,
+) -> ExitCode {
     modes::sim(
         SimArgs {
             world: None,
             seed: Some(seed),
             duration: Some(duration_s),
             config: config.map(Path::to_path_buf),
+            trajectory: trajectory.map(Path::to_path_buf),
             out: Outputs {
                 record: record.map(Path::to_path_buf),
                 report: report.map(Path::to_path_buf),
@@ -49,6 +62,21 @@ pub fn replay(log: &Path, report: Option<&Path>) -> ExitCode {
         false,
     )
     .unwrap_or_else(|e| panic!("replay failed: {e}"))
+}
+
+/// A TUM trajectory file: (time s, position) per line.
+pub fn read_tum(path: &Path) -> Vec<(f64, [f64; 3])> {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .map(|l| {
+            let v: Vec<f64> = l
+                .split_whitespace()
+                .map(|x| x.parse().unwrap_or_else(|e| panic!("{l}: {e}")))
+                .collect();
+            assert_eq!(v.len(), 8, "a TUM line has 8 numbers: {l}");
+            (v[0], [v[1], v[2], v[3]])
+        })
+        .collect()
 }
 
 pub fn read_json(path: &Path) -> serde_json::Value {

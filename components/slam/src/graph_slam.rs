@@ -40,13 +40,21 @@ pub struct SlamParams {
     /// within this distance of the new one.
     pub loop_radius_m: f64,
     pub loop_min_gap: usize,
-    /// A loop closure is accepted when GICP's inlier RMSE is below this...
+    /// Loops are verified by a second alignment that pairs points only
+    /// within this distance (the first one's reach is
+    /// `gicp.max_correspondence_m`)...
+    pub loop_verify_distance_m: f64,
+    /// ...and accepted when its inlier RMSE is below this...
     pub loop_max_fitness_m: f64,
     /// ...and this share of the source points found a correspondence.
     pub loop_min_inlier_fraction: f64,
     /// Odometry noise: standard deviation per metre driven.
     pub odom_sigma_m_per_m: f64,
     pub odom_sigma_rad_per_m: f64,
+    /// Heading drift of the odometry per second (the gyro's uncompensated
+    /// bias): a rover that turns in place or sits for a minute between
+    /// keyframes has travelled little but its heading has drifted.
+    pub odom_sigma_rad_per_s: f64,
     pub inclination_sigma_deg: f64,
     /// GICP's Hessian assumes independent points; scale it to an honest
     /// information.
@@ -69,7 +77,7 @@ impl Default for SlamParams {
     fn default() -> Self {
         SlamParams {
             keyframe_capacity: 1024,
-            active_keyframes: 400,
+            active_keyframes: 150,
             keyframe_distance_m: 1.0,
             keyframe_angle_deg: 15.0,
             voxel_m: 0.2,
@@ -78,10 +86,12 @@ impl Default for SlamParams {
             neighbor_radius_m: 8.0,
             loop_radius_m: 5.0,
             loop_min_gap: 25,
-            loop_max_fitness_m: 0.12,
-            loop_min_inlier_fraction: 0.5,
+            loop_verify_distance_m: 0.4,
+            loop_max_fitness_m: 0.18,
+            loop_min_inlier_fraction: 0.4,
             odom_sigma_m_per_m: 0.05,
             odom_sigma_rad_per_m: 0.02,
+            odom_sigma_rad_per_s: 1e-3,
             inclination_sigma_deg: 1.0,
             gicp_information_scale: 0.05,
             robust_scale: 3.0,
@@ -98,6 +108,66 @@ impl Default for SlamParams {
     }
 }
 
+/// An index stride near `n / golden ratio` that is coprime with `n`, so
+/// `i * stride % n` visits every index once, evenly spread.
+fn interleave_stride(n: usize) -> usize {
+    if n < 3 {
+        return 1;
+    }
+    let gcd = |mut a: usize, mut b: usize| {
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let mut s = ((n as f64) * 0.618_033_988_749_895) as usize;
+    while gcd(s, n) != 1 {
+        s += 1;
+    }
+    s
+}
+
+/// The verification of the latest loop candidate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopCheck {
+    pub older: usize,
+    pub newer: usize,
+    /// GICP's inlier RMSE, m, and the share of points that found a match.
+    pub fitness_m: f64,
+    pub inlier_fraction: f64,
+    pub iterations: u32,
+    pub accepted: bool,
+}
+
+/// Why a loop closure from outside was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoopClosureError {
+    /// A keyframe is being processed; try again when idle.
+    Busy,
+    NoSuchKeyframes {
+        older: usize,
+        newer: usize,
+        n: usize,
+    },
+    /// The factor store is full.
+    Full,
+}
+
+impl std::fmt::Display for LoopClosureError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            LoopClosureError::Busy => write!(f, "SLAM is processing a keyframe"),
+            LoopClosureError::NoSuchKeyframes { older, newer, n } => write!(
+                f,
+                "a loop closure needs keyframes older < newer < {n}, got {older} and {newer}"
+            ),
+            LoopClosureError::Full => write!(f, "the factor store is full"),
+        }
+    }
+}
+
+impl std::error::Error for LoopClosureError {}
+
 /// What the pipeline has done.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SlamStats {
@@ -113,6 +183,11 @@ pub struct SlamStats {
     /// Keyframes refused because the store was full.
     pub keyframes_refused: u64,
     pub solver_failures: u64,
+    /// Scan points that found the voxel grid full (the keyframe keeps a
+    /// spatially even subset of `max_scan_points` voxels).
+    pub scan_points_dropped: u64,
+    /// Loop closures added from outside (place recognition, fault injection).
+    pub external_loop_closures: u64,
 }
 
 /// A keyframe's bookkeeping (its scan lives in the shared pool).
@@ -124,6 +199,8 @@ pub struct Keyframe {
     /// Gravity "up" in the IMU frame.
     pub up_imu: Vector3<f64>,
     points: usize,
+    /// Index of the factor registering it to its predecessor, if accepted.
+    registration: Option<usize>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -143,6 +220,10 @@ enum Phase {
 struct Candidate {
     keyframe: usize,
     is_loop: bool,
+    /// Loops are aligned twice: within `gicp.max_correspondence_m`, then
+    /// from there within `loop_verify_distance_m`, whose fitness and
+    /// overlap decide.
+    refining: bool,
     result: Option<Alignment>,
 }
 
@@ -168,9 +249,12 @@ pub struct GraphSlam {
     pending: Vec<[f64; 3]>,
     pending_kf: Option<Keyframe>,
     candidates: HVec<Candidate, MAX_CANDIDATES>,
+    /// Index stride of the interleaved feed of the pending scan.
+    stride: usize,
     phase: Phase,
     stats: SlamStats,
     loop_closures: Vec<(usize, usize)>,
+    last_loop_check: Option<LoopCheck>,
 }
 
 impl GraphSlam {
@@ -192,9 +276,11 @@ impl GraphSlam {
             pending: Vec::with_capacity(p.max_scan_points * 4),
             pending_kf: None,
             candidates: HVec::new(),
+            stride: 1,
             phase: Phase::Idle,
             stats: SlamStats::default(),
             loop_closures: Vec::with_capacity(cap),
+            last_loop_check: None,
             p,
         }
     }
@@ -229,6 +315,11 @@ impl GraphSlam {
     /// Accepted loop closures (older keyframe, newer keyframe).
     pub fn loop_closures(&self) -> &[(usize, usize)] {
         &self.loop_closures
+    }
+
+    /// How the latest loop candidate fared.
+    pub fn last_loop_check(&self) -> Option<LoopCheck> {
+        self.last_loop_check
     }
 
     /// The IMU-to-LiDAR bias rotation (identity until estimated).
@@ -296,6 +387,7 @@ impl GraphSlam {
             odom,
             up_imu: up,
             points: 0,
+            registration: None,
         });
         self.phase = Phase::Gather(0);
         true
@@ -308,6 +400,7 @@ impl GraphSlam {
             Phase::Gather(from) => self.gather(from),
             Phase::Build => {
                 self.clouds[0].build();
+                self.stats.scan_points_dropped += self.clouds[0].stats().voxel.over_capacity as u64;
                 self.owner[0] = None;
                 self.phase = Phase::Covariances;
             }
@@ -328,15 +421,22 @@ impl GraphSlam {
         self.pose(&kf.odom)
     }
 
+    /// Feed the next part of the pending scan into the voxel grid. The
+    /// points go in a golden-ratio interleaved order: a revolution arrives
+    /// sorted by azimuth, and when its voxels exceed the grid's capacity the
+    /// ones dropped must be spread over the whole scan, not be the last
+    /// sector (which would leave keyframes seen from opposite headings
+    /// nothing in common).
     fn gather(&mut self, from: usize) {
+        let n = self.pending.len();
         if from == 0 {
             self.clouds[0].begin(self.p.voxel_m);
+            self.stride = interleave_stride(n);
         }
-        let to = from
-            .saturating_add(self.p.points_per_step.max(1))
-            .min(self.pending.len());
-        self.clouds[0].add(self.pending[from..to].iter().copied());
-        self.phase = if to == self.pending.len() {
+        let to = from.saturating_add(self.p.points_per_step.max(1)).min(n);
+        let (stride, pending) = (self.stride, &self.pending);
+        self.clouds[0].add((from..to).map(|i| pending[(i * stride) % n]));
+        self.phase = if to == n {
             Phase::Build
         } else {
             Phase::Gather(to)
@@ -360,6 +460,7 @@ impl GraphSlam {
         let _ = self.candidates.push(Candidate {
             keyframe: n - 1,
             is_loop: false,
+            refining: false,
             result: None,
         });
         let mut near: HVec<(f64, usize), 64> = HVec::new();
@@ -379,6 +480,7 @@ impl GraphSlam {
             let _ = self.candidates.push(Candidate {
                 keyframe: k,
                 is_loop: false,
+                refining: false,
                 result: None,
             });
         }
@@ -386,6 +488,7 @@ impl GraphSlam {
             let _ = self.candidates.push(Candidate {
                 keyframe: k,
                 is_loop: true,
+                refining: false,
                 result: None,
             });
         }
@@ -439,11 +542,26 @@ impl GraphSlam {
             .between(&self.predicted(&kf))
             .to_isometry();
         let aligner = self.aligner.get_or_insert_with(|| Aligner::new(&init));
+        let refining = self.candidates[i].refining;
+        let params = if refining {
+            GicpParams {
+                max_correspondence_m: self.p.loop_verify_distance_m,
+                ..self.p.gicp
+            }
+        } else {
+            self.p.gicp
+        };
         let (src, rest) = self.clouds.split_at_mut(1);
-        if !aligner.step(&src[0], &rest[slot - 1], &self.p.gicp, budget) {
+        if !aligner.step(&src[0], &rest[slot - 1], &params, budget) {
             return;
         }
-        self.candidates[i].result = Some(aligner.result());
+        let result = aligner.result();
+        if self.candidates[i].is_loop && !refining {
+            self.candidates[i].refining = true;
+            self.aligner = Some(Aligner::new(&result.transform));
+            return;
+        }
+        self.candidates[i].result = Some(result);
         self.aligner = None;
         self.stats.registrations += 1;
         self.phase = Phase::Register(i + 1);
@@ -494,8 +612,12 @@ impl GraphSlam {
             let prev = &self.keyframes[k - 1];
             let z = prev.odom.between(&kf.odom);
             let d = z.t.norm().max(0.05);
+            let dt = kf.stamp_ns.saturating_sub(prev.stamp_ns) as f64 * 1e-9;
             let st = 1.0 / (self.p.odom_sigma_m_per_m * d);
-            let sr = 1.0 / (self.p.odom_sigma_rad_per_m * d);
+            let sr = 1.0
+                / (self.p.odom_sigma_rad_per_m * d)
+                    .hypot(self.p.odom_sigma_rad_per_s * dt)
+                    .max(1e-9);
             let u = Matrix6::from_diagonal(&nalgebra::Vector6::new(st, st, st, sr, sr, sr));
             // Robust too: spinning wheels (a rover stuck nose-up) report
             // travel that the scans do not see.
@@ -521,6 +643,16 @@ impl GraphSlam {
             } else {
                 a.inlier_fraction >= 0.3
             };
+            if c.is_loop {
+                self.last_loop_check = Some(LoopCheck {
+                    older: c.keyframe,
+                    newer: k,
+                    fitness_m: a.fitness,
+                    inlier_fraction: a.inlier_fraction,
+                    iterations: a.iterations,
+                    accepted: ok,
+                });
+            }
             if !ok {
                 if c.is_loop {
                     self.stats.loop_candidates_rejected += 1;
@@ -534,6 +666,9 @@ impl GraphSlam {
                 self.stats.registrations_rejected += 1;
                 continue;
             };
+            if c.keyframe + 1 == k {
+                kf.registration = Some(self.factors.len());
+            }
             self.factors.push(Factor::Between {
                 i: c.keyframe + 1,
                 j: var,
@@ -565,13 +700,7 @@ impl GraphSlam {
                 self.stats.frozen += 1;
             }
         }
-        self.solver = match Solver::new(&self.vars, &self.factors, LmParams::default()) {
-            Ok(s) => Some(s),
-            Err(_) => {
-                self.stats.solver_failures += 1;
-                None
-            }
-        };
+        self.rebuild_solver();
         self.phase = Phase::Optimize(0);
     }
 
@@ -589,8 +718,85 @@ impl GraphSlam {
         };
     }
 
+    /// The square-root information of the registration factor that joined
+    /// keyframe `k` to its predecessor, if it was accepted: what a loop
+    /// closure of the same quality would carry.
+    pub fn registration_information(&self, k: usize) -> Option<Matrix6<f64>> {
+        match self.factors.get(self.keyframes.get(k)?.registration?)? {
+            Factor::Between { sqrt_info, .. } => Some(*sqrt_info),
+            _ => None,
+        }
+    }
+
+    /// Adds a loop closure found outside the pipeline (place recognition,
+    /// an operator, fault injection): `z` is keyframe `newer` in the frame
+    /// of keyframe `older`. It goes under the same robust kernel as the
+    /// pipeline's own, so a wrong one cannot wreck the map. Only between
+    /// keyframes, when idle; the optimisation restarts.
+    pub fn add_loop_closure(
+        &mut self,
+        older: usize,
+        newer: usize,
+        z: Pose,
+        sqrt_info: Matrix6<f64>,
+    ) -> Result<(), LoopClosureError> {
+        if !self.is_idle() {
+            return Err(LoopClosureError::Busy);
+        }
+        let n = self.keyframes.len();
+        if older >= newer || newer >= n {
+            return Err(LoopClosureError::NoSuchKeyframes { older, newer, n });
+        }
+        if self.factors.len() == self.factors.capacity() {
+            return Err(LoopClosureError::Full);
+        }
+        self.factors.push(Factor::Between {
+            i: older + 1,
+            j: newer + 1,
+            z,
+            sqrt_info,
+            robust: Robust::Cauchy(self.p.robust_scale),
+        });
+        self.stats.loop_closures += 1;
+        self.stats.external_loop_closures += 1;
+        if self.loop_closures.len() < self.loop_closures.capacity() {
+            self.loop_closures.push((older, newer));
+        }
+        self.rebuild_solver();
+        self.phase = Phase::Optimize(0);
+        Ok(())
+    }
+
+    fn rebuild_solver(&mut self) {
+        self.solver = match Solver::new(&self.vars, &self.factors, LmParams::default()) {
+            Ok(s) => Some(s),
+            Err(_) => {
+                self.stats.solver_failures += 1;
+                None
+            }
+        };
+    }
+
     /// Process everything pending (offline use and tests).
     pub fn run_to_idle(&mut self) {
         while self.step() {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::interleave_stride;
+
+    #[test]
+    fn the_interleaved_order_visits_every_point_once() {
+        for n in [1, 2, 3, 10, 64, 1000, 65_536, 69_999] {
+            let s = interleave_stride(n);
+            let mut seen = vec![false; n];
+            for i in 0..n {
+                let k = (i * s) % n;
+                assert!(!seen[k], "n {n}: {k} twice");
+                seen[k] = true;
+            }
+        }
     }
 }

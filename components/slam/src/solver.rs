@@ -105,6 +105,9 @@ pub struct Solver {
     correction: Vec<f64>,
     diag: Vec<f64>,
     backup: Vec<Var>,
+    /// Factors touching a free variable: the others add a constant cost and
+    /// nothing to the system, so a long frozen past costs nothing.
+    active: Vec<usize>,
     lambda: f64,
     cost: f64,
     converged: bool,
@@ -173,6 +176,15 @@ impl Solver {
                 }
             }
         }
+        let active = factors
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| {
+                let (v, nv) = f.vars();
+                v[..nv].iter().any(|&x| offset[x] != usize::MAX)
+            })
+            .map(|(i, _)| i)
+            .collect();
         let values = vec![0.0; row_idx.len()];
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
         let symbolic = factorize_symbolic_cholesky(
@@ -209,6 +221,7 @@ impl Solver {
             correction: vec![0.0; n],
             diag: vec![0.0; n],
             backup: vars.to_vec(),
+            active,
             lambda: params.initial_lambda,
             cost: f64::NAN,
             converged: false,
@@ -271,7 +284,7 @@ impl Solver {
             }
             self.backup.copy_from_slice(vars);
             self.apply(vars);
-            let new_cost: f64 = factors.iter().map(|f| f.cost(vars)).sum();
+            let new_cost = self.active_cost(vars, factors);
             let predicted = self.predicted_decrease();
             let rho = (cost - new_cost) / predicted.max(1e-300);
             if new_cost < cost && rho > 0.0 {
@@ -310,12 +323,20 @@ impl Solver {
         factors.iter().map(|f| f.cost(vars)).sum()
     }
 
-    /// Build J^T J (upper) into `values` and -J^T r into `rhs`; returns the cost.
+    /// Cost of the factors that touch free variables.
+    fn active_cost(&self, vars: &[Var], factors: &[Factor]) -> f64 {
+        self.active.iter().map(|&fi| factors[fi].cost(vars)).sum()
+    }
+
+    /// Build J^T J (upper) into `values` and -J^T r into `rhs`; returns the
+    /// cost of the active factors.
     fn assemble(&mut self, vars: &[Var], factors: &[Factor], curvature: bool) -> f64 {
         self.values.iter_mut().for_each(|v| *v = 0.0);
         self.rhs.iter_mut().for_each(|v| *v = 0.0);
         let mut cost = 0.0;
-        for (fi, f) in factors.iter().enumerate() {
+        for i in 0..self.active.len() {
+            let fi = self.active[i];
+            let f = &factors[fi];
             let mut lin = f.linearize(vars);
             let rows = lin.rows;
             let s = lin.r.rows(0, rows).norm_squared();

@@ -183,3 +183,37 @@ fn a_wrong_loop_closure_does_not_move_the_map_beyond_the_noise() {
         "the wrong closure moved the map by {moved} m (error without it {good_mean})"
     );
 }
+
+#[test]
+fn factors_between_frozen_poses_cost_nothing_and_change_nothing() {
+    let t = truth();
+    let bias = Matrix3::identity();
+    let frozen = |mut b: Built| {
+        // The first 20 poses are frozen, as a sliding window leaves them.
+        for v in b.vars.iter_mut().skip(1).take(20) {
+            v.fixed = true;
+        }
+        b
+    };
+    let plain = solve(frozen(build(
+        &t,
+        &bias,
+        &mut ChaCha8Rng::seed_from_u64(5),
+        false,
+    )));
+    let mut b = frozen(build(&t, &bias, &mut ChaCha8Rng::seed_from_u64(5), false));
+    // A nonsense factor among frozen poses only: the solver must leave it out
+    // of the system and of the cost comparisons.
+    b.factors.push(Factor::Between {
+        i: 3,
+        j: 15,
+        z: Pose::new(Matrix3::identity(), Vector3::new(40.0, -3.0, 7.0)),
+        sqrt_info: Matrix6::identity() * 100.0,
+        robust: Robust::None,
+    });
+    let with = solve(b);
+    for (a, b) in plain.iter().zip(&with) {
+        assert_eq!(a.pose.t, b.pose.t);
+        assert_eq!(a.pose.r, b.pose.r);
+    }
+}

@@ -455,8 +455,10 @@ impl RecorderTask<'_> {
                 models: [],
             }],
         };
-        tap.emit(Topic::Plan, frame, now, now, |w| {
-            serde_json::to_writer(w, &msg)
+        // Up to MAX_WAYPOINTS points (~60 bytes each in JSON) outgrow a
+        // small message buffer: the plan goes in a point-cloud-sized one.
+        tap.emit_large(Topic::Plan, frame, now, now, |w| {
+            serde_json::to_writer(w, &msg).map_err(std::io::Error::other)
         });
     }
 }

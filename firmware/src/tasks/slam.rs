@@ -13,6 +13,7 @@ use speleo_slam::graph_slam::{GraphSlam, SlamParams};
 use speleo_slam::lie::Pose;
 
 use crate::bus::{Bus, SlamPose};
+use crate::config::FalseLoopClosure;
 
 /// Points within this span of firing times share one deskewing pose.
 const DESKEW_SLICE_S: f64 = 100e-6;
@@ -40,6 +41,8 @@ pub struct SlamTask {
     /// Revolutions that could not be placed in the odometry history.
     pub scans_without_odometry: u64,
     pub points_not_deskewed: u64,
+    /// A wrong loop closure still to inject (fault injection).
+    false_loop: Option<FalseLoopClosure>,
 }
 
 impl SlamTask {
@@ -56,6 +59,41 @@ impl SlamTask {
             staged: None,
             scans_without_odometry: 0,
             points_not_deskewed: 0,
+            false_loop: None,
+        }
+    }
+
+    /// Inject this wrong loop closure once both its keyframes exist.
+    pub fn inject_false_loop(&mut self, f: FalseLoopClosure) {
+        self.false_loop = Some(f);
+    }
+
+    /// The injection, when its time has come: SLAM's own estimate of the
+    /// relative pose, moved by the configured error, with the information
+    /// of the newer keyframe's registration.
+    fn inject_due_loop(&mut self) {
+        let Some(f) = &self.false_loop else { return };
+        if !self.slam.is_idle() || self.slam.keyframes().len() <= f.newer {
+            return;
+        }
+        let rel = self
+            .slam
+            .keyframe_pose(f.older)
+            .between(&self.slam.keyframe_pose(f.newer));
+        let error = Pose::new(
+            *nalgebra::Rotation3::from_euler_angles(0.0, 0.0, f.yaw_deg.to_radians()).matrix(),
+            Vector3::from(f.offset_m),
+        );
+        let info = self
+            .slam
+            .registration_information(f.newer)
+            .unwrap_or_else(|| nalgebra::Matrix6::identity() * 100.0);
+        if self
+            .slam
+            .add_loop_closure(f.older, f.newer, rel.compose(&error), info)
+            .is_ok()
+        {
+            self.false_loop = None;
         }
     }
 
@@ -170,8 +208,25 @@ impl Task<Bus> for SlamTask {
                 self.deskew_part(bus);
                 continue;
             }
+            self.inject_due_loop();
+            let checks =
+                self.slam.stats().loop_closures + self.slam.stats().loop_candidates_rejected;
             if !self.slam.step() {
                 return StepResult::Idle;
+            }
+            let s = self.slam.stats();
+            if s.loop_closures + s.loop_candidates_rejected != checks {
+                if let Some(c) = self.slam.last_loop_check() {
+                    tracing::debug!(
+                        older = c.older,
+                        newer = c.newer,
+                        fitness_m = c.fitness_m,
+                        inlier_fraction = c.inlier_fraction,
+                        iterations = c.iterations,
+                        accepted = c.accepted,
+                        "loop candidate"
+                    );
+                }
             }
         }
         StepResult::Continue

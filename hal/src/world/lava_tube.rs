@@ -225,9 +225,11 @@ pub struct LavaTube {
     pub floor_area_m2: f64,
     /// x, y, z, yaw of the rover's start: past the muddy entrance, facing in.
     pub start: [f64; 4],
-    /// Floor points every 2 m from the start to the end of the tube, steering
-    /// clear of the boulders (for scripted drives).
+    /// Floor points every metre from the start to 4 m before the tube's
+    /// end, steering clear of the boulders (for scripted drives).
     pub route: Vec<[f64; 3]>,
+    /// The boulders: x, y of their centre and their size across, m.
+    pub boulders: Vec<[f64; 3]>,
 }
 
 pub fn generate(seed: u64, p: &LavaTubeParams) -> LavaTube {
@@ -296,12 +298,31 @@ pub fn generate(seed: u64, p: &LavaTubeParams) -> LavaTube {
         mesh,
         floor_area_m2: floor,
         start: [s0.c[0], s0.c[1], floor_z(s0), s0.heading],
-        route: route(&main.stations[k0.min(main.stations.len() - 1)..], &boulders),
+        route: {
+            let n = main.stations.len();
+            let first = k0.min(n - 1);
+            let end = n.saturating_sub(END_CLEARANCE).max(first + 1);
+            route(&main.stations[first..end], &boulders)
+        },
+        boulders,
     }
 }
 
-/// Every fourth station's floor point, moved sideways (within the middle
-/// half of the floor) to where it is farthest from the nearest boulder.
+/// Stations the route stops short of the tube's closed end (4 m): room to
+/// turn around.
+const END_CLEARANCE: usize = 8;
+
+/// Lateral choices per route point (steps of a tenth of the radius).
+const LATERAL_STEPS: i32 = 6;
+/// Wanted clearance between the rover's centre line and a boulder's edge:
+/// half the rover's width plus a margin for path-following error.
+const WANTED_CLEARANCE_M: f64 = 1.0;
+
+/// Every second station's floor point (1 m apart), moved sideways (within the middle
+/// part of the floor) so that the straight drive between successive points
+/// keeps clear of the boulders: a Viterbi search over the lateral choices
+/// whose cost penalises clearance below [`WANTED_CLEARANCE_M`] along each
+/// segment, distance from the middle, and zig-zags.
 fn route(stations: &[Station], boulders: &[[f64; 3]]) -> Vec<[f64; 3]> {
     let clearance = |x: f64, y: f64| {
         boulders
@@ -309,23 +330,108 @@ fn route(stations: &[Station], boulders: &[[f64; 3]]) -> Vec<[f64; 3]> {
             .map(|b| (b[0] - x).hypot(b[1] - y) - 0.6 * b[2])
             .fold(f64::INFINITY, f64::min)
     };
-    stations
-        .iter()
-        .step_by(4)
-        .skip(1)
-        .map(|st| {
-            let (sh, ch) = (libm::sin(st.heading), libm::cos(st.heading));
-            let mut best = (f64::NEG_INFINITY, st.c[0], st.c[1]);
-            for k in -4..=4 {
-                // Prefer the middle: a small penalty for each step aside.
-                let lateral = k as f64 * 0.1 * st.radius;
-                let (x, y) = (st.c[0] - lateral * sh, st.c[1] + lateral * ch);
-                let score = clearance(x, y).min(2.0) - 0.05 * (k as f64).abs();
-                if score > best.0 {
-                    best = (score, x, y);
+    let chosen: Vec<&Station> = stations.iter().step_by(2).skip(1).collect();
+    let width = (2 * LATERAL_STEPS + 1) as usize;
+    let point = |st: &Station, k: usize| {
+        let lateral = (k as i32 - LATERAL_STEPS) as f64 * 0.1 * st.radius;
+        let (sh, ch) = (libm::sin(st.heading), libm::cos(st.heading));
+        (st.c[0] - lateral * sh, st.c[1] + lateral * ch)
+    };
+    let segment_cost = |a: (f64, f64), b: (f64, f64)| {
+        (0..=8)
+            .map(|i| {
+                let f = i as f64 / 8.0;
+                let c = clearance(a.0 + f * (b.0 - a.0), a.1 + f * (b.1 - a.1));
+                let short = (WANTED_CLEARANCE_M - c).max(0.0);
+                10.0 * short * short
+            })
+            .fold(0.0, f64::max)
+    };
+    let aside = |k: usize| 0.02 * (k as i32 - LATERAL_STEPS).abs() as f64;
+    // cost[i][k]: best cost of a route ending at choice k of point i.
+    let mut cost: Vec<Vec<f64>> = Vec::with_capacity(chosen.len());
+    let mut from: Vec<Vec<usize>> = Vec::with_capacity(chosen.len());
+    for (i, st) in chosen.iter().enumerate() {
+        let mut c = vec![f64::INFINITY; width];
+        let mut f = vec![0; width];
+        for (k, ck) in c.iter_mut().enumerate() {
+            let here = point(st, k);
+            if i == 0 {
+                // The rover starts in the middle of the floor.
+                let start = point(&stations[0], LATERAL_STEPS as usize);
+                *ck = segment_cost(start, here) + aside(k);
+                continue;
+            }
+            for (j, prev) in cost[i - 1].iter().enumerate() {
+                let zig = 0.01 * (k as i32 - j as i32).abs() as f64;
+                let total = prev + segment_cost(point(chosen[i - 1], j), here) + aside(k) + zig;
+                if total < *ck {
+                    (*ck, f[k]) = (total, j);
                 }
             }
-            [best.1, best.2, floor_z(st)]
+        }
+        cost.push(c);
+        from.push(f);
+    }
+    let Some(last) = cost.last() else {
+        return Vec::new();
+    };
+    let mut k = (0..width)
+        .min_by(|&a, &b| last[a].total_cmp(&last[b]))
+        .unwrap_or(LATERAL_STEPS as usize);
+    let mut picks = vec![0; chosen.len()];
+    for i in (0..chosen.len()).rev() {
+        picks[i] = k;
+        k = from[i][k];
+    }
+    chosen
+        .iter()
+        .zip(picks)
+        .map(|(st, k)| {
+            let (x, y) = point(st, k);
+            [x, y, floor_z(st)]
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Smallest distance from the drive along the route (start included)
+    /// to a boulder's edge, sampled every 5 cm.
+    fn route_clearance(t: &LavaTube) -> f64 {
+        let mut pts = vec![[t.start[0], t.start[1]]];
+        pts.extend(t.route.iter().map(|p| [p[0], p[1]]));
+        let mut worst = f64::INFINITY;
+        for w in pts.windows(2) {
+            let len = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+            let n = (len / 0.05).ceil().max(1.0) as usize;
+            for i in 0..=n {
+                let f = i as f64 / n as f64;
+                let (x, y) = (
+                    w[0][0] + f * (w[1][0] - w[0][0]),
+                    w[0][1] + f * (w[1][1] - w[0][1]),
+                );
+                for b in &t.boulders {
+                    // The rock's jitter reaches 1.25 times its radius.
+                    worst = worst.min((b[0] - x).hypot(b[1] - y) - 0.625 * b[2]);
+                }
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn the_route_keeps_the_rover_clear_of_every_boulder() {
+        for seed in 1..=4 {
+            let t = generate(seed, &LavaTubeParams::default());
+            assert!(t.route.len() > 100, "seed {seed}: {} points", t.route.len());
+            let c = route_clearance(&t);
+            println!("seed {seed}: route clearance {c:.2} m");
+            // The chassis (0.16 m half-width, between the wheels) must not
+            // pass over a rock: it would sit on it, wheels spinning.
+            assert!(c >= 0.35, "seed {seed}: {c} m");
+        }
+    }
 }
