@@ -66,6 +66,14 @@ pub struct SlamFigures {
     pub ate_max_m: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub altitude_err_mean_m: Option<f64>,
+    /// The same after the best rigid alignment of the keyframe positions
+    /// onto the truth (what trajectory evaluation tools report by default).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ate_aligned_mean_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ate_aligned_max_m: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub altitude_err_aligned_mean_m: Option<f64>,
     /// Tilt between the estimated bias and the simulated IMU misalignment.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub bias_error_deg: Option<f64>,
@@ -129,6 +137,7 @@ pub fn figures(
     );
     let mut errs = Vec::new();
     let mut alt = Vec::new();
+    let mut pairs = Vec::new();
     for (k, kf) in slam.keyframes().iter().enumerate() {
         let est = world_from_map * slam.keyframe_pose(k).to_isometry();
         let q = est.rotation.into_inner();
@@ -145,6 +154,7 @@ pub fn figures(
         let d = est.translation.vector - nalgebra::Vector3::from(t);
         errs.push(d.norm());
         alt.push(d.z.abs());
+        pairs.push((est.translation.vector, nalgebra::Vector3::from(t)));
     }
     if !errs.is_empty() {
         let n = errs.len() as f64;
@@ -152,7 +162,46 @@ pub fn figures(
         f.ate_max_m = Some(errs.iter().fold(0.0, |m: f64, e| m.max(*e)));
         f.altitude_err_mean_m = Some(alt.iter().sum::<f64>() / n);
     }
+    if let Some(align) = rigid_alignment(&pairs) {
+        let d: Vec<_> = pairs
+            .iter()
+            .map(|(e, t)| align.transform_point(&(*e).into()).coords - t)
+            .collect();
+        let n = d.len() as f64;
+        f.ate_aligned_mean_m = Some(d.iter().map(|v| v.norm()).sum::<f64>() / n);
+        f.ate_aligned_max_m = Some(d.iter().map(|v| v.norm()).fold(0.0, f64::max));
+        f.altitude_err_aligned_mean_m = Some(d.iter().map(|v| v.z.abs()).sum::<f64>() / n);
+    }
     f
+}
+
+/// The rotation and translation that best map the estimated positions onto
+/// the true ones in the least-squares sense (Umeyama 1991, without scale),
+/// as trajectory evaluation tools align before comparing. `None` for fewer
+/// than three pairs.
+fn rigid_alignment(
+    pairs: &[(nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)],
+) -> Option<nalgebra::Isometry3<f64>> {
+    use nalgebra::{Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+    if pairs.len() < 3 {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let ce = pairs.iter().map(|p| p.0).sum::<Vector3<f64>>() / n;
+    let ct = pairs.iter().map(|p| p.1).sum::<Vector3<f64>>() / n;
+    let h: Matrix3<f64> = pairs
+        .iter()
+        .map(|(e, t)| (t - ct) * (e - ce).transpose())
+        .sum();
+    let svd = h.svd(true, true);
+    let (u, v_t) = (svd.u?, svd.v_t?);
+    let sign = (u * v_t).determinant().signum();
+    let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, sign)) * v_t;
+    let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
+    Some(nalgebra::Isometry3::from_parts(
+        Translation3::from(ct - rot * ce),
+        rot,
+    ))
 }
 
 /// Writes the keyframe trajectory in the TUM format (`time x y z qx qy qz
@@ -197,4 +246,34 @@ pub fn write_tum(path: &std::path::Path, rows: &[KeyframeTrajectory]) -> std::io
         gt.flush()?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rigid_alignment;
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+
+    #[test]
+    fn the_alignment_undoes_a_known_rigid_motion() {
+        let truth: Vec<Vector3<f64>> = (0..20)
+            .map(|k| {
+                let s = k as f64;
+                Vector3::new(s, 0.3 * (0.5 * s).sin(), 0.02 * s * s)
+            })
+            .collect();
+        let moved = Isometry3::from_parts(
+            Translation3::new(1.0, -2.0, 0.5),
+            UnitQuaternion::from_euler_angles(0.01, -0.02, 0.3),
+        );
+        let pairs: Vec<_> = truth
+            .iter()
+            .map(|t| (moved.transform_point(&(*t).into()).coords, *t))
+            .collect();
+        let a = rigid_alignment(&pairs).expect("three or more pairs");
+        for (e, t) in &pairs {
+            let d = (a.transform_point(&(*e).into()).coords - t).norm();
+            assert!(d < 1e-9, "{d}");
+        }
+        assert!(rigid_alignment(&pairs[..2]).is_none());
+    }
 }

@@ -50,6 +50,9 @@ pub struct SlamParams {
     pub loop_min_inlier_fraction: f64,
     /// Odometry noise: standard deviation per metre driven.
     pub odom_sigma_m_per_m: f64,
+    /// ...along the previous keyframe's z axis: the height gained comes
+    /// from the IMU's gravity-referenced pitch, which slip barely touches.
+    pub odom_sigma_vertical_m_per_m: f64,
     pub odom_sigma_rad_per_m: f64,
     /// Heading drift of the odometry per second (the gyro's uncompensated
     /// bias): a rover that turns in place or sits for a minute between
@@ -77,7 +80,7 @@ impl Default for SlamParams {
     fn default() -> Self {
         SlamParams {
             keyframe_capacity: 1024,
-            active_keyframes: 150,
+            active_keyframes: 100,
             keyframe_distance_m: 1.0,
             keyframe_angle_deg: 15.0,
             voxel_m: 0.2,
@@ -90,6 +93,7 @@ impl Default for SlamParams {
             loop_max_fitness_m: 0.18,
             loop_min_inlier_fraction: 0.4,
             odom_sigma_m_per_m: 0.05,
+            odom_sigma_vertical_m_per_m: 0.05,
             odom_sigma_rad_per_m: 0.02,
             odom_sigma_rad_per_s: 1e-3,
             inclination_sigma_deg: 1.0,
@@ -213,7 +217,13 @@ enum Phase {
     Covariances,
     Register(usize),
     Insert,
-    Optimize(u32),
+    /// The solver's structural analysis of the changed graph.
+    Analyse,
+    /// Levenberg-Marquardt: steps accepted and calls made so far.
+    Optimize {
+        accepted: u32,
+        calls: u32,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -228,6 +238,17 @@ struct Candidate {
 }
 
 const MAX_CANDIDATES: usize = 8;
+/// The pose graph has no chordal factors (nothing for Newton steps), and
+/// one factorisation per call keeps every step within its time.
+const SLAM_LM: LmParams = LmParams {
+    initial_lambda: 1e-12,
+    relative_tolerance: 1e-5,
+    step_tolerance: 1e-10,
+    refinement_steps: 2,
+    newton: false,
+    attempts_per_iteration: 1,
+};
+
 /// Variable index of the bias; keyframe `k` is variable `k + 1`.
 const BIAS: usize = 0;
 
@@ -242,6 +263,8 @@ pub struct GraphSlam {
     /// Prepared clouds: slot 0 is the new scan; the rest cache keyframes.
     clouds: Vec<PreparedCloud>,
     owner: Vec<Option<usize>>,
+    /// Whether a cache slot's kd-tree has been built since it was loaded.
+    built: Vec<bool>,
     next_victim: usize,
     /// The registration in progress.
     aligner: Option<Aligner>,
@@ -271,6 +294,7 @@ impl GraphSlam {
                 .map(|_| PreparedCloud::with_capacity(p.max_scan_points))
                 .collect(),
             owner: vec![None; slots],
+            built: vec![true; slots],
             next_victim: 1,
             aligner: None,
             pending: Vec::with_capacity(p.max_scan_points * 4),
@@ -411,7 +435,14 @@ impl GraphSlam {
             }
             Phase::Register(i) => self.register(i),
             Phase::Insert => self.insert(),
-            Phase::Optimize(n) => self.optimize(n),
+            Phase::Analyse => {
+                self.rebuild_solver();
+                self.phase = Phase::Optimize {
+                    accepted: 0,
+                    calls: 0,
+                };
+            }
+            Phase::Optimize { accepted, calls } => self.optimize(accepted, calls),
         }
         true
     }
@@ -512,8 +543,8 @@ impl GraphSlam {
         let cloud = &mut self.clouds[s];
         cloud.begin(0.0);
         cloud.add(pts.iter().map(|p| [p[0] as f64, p[1] as f64, p[2] as f64]));
-        cloud.build();
         self.owner[s] = Some(k);
+        self.built[s] = false;
     }
 
     /// One bounded part of registering the new scan to candidate `i`: load
@@ -532,6 +563,12 @@ impl GraphSlam {
             self.load_target(k);
             return;
         };
+        if !self.built[slot] {
+            // The kd-tree in a step of its own.
+            self.clouds[slot].build();
+            self.built[slot] = true;
+            return;
+        }
         let budget = self.p.points_per_step.max(1);
         if !self.clouds[slot].is_ready() {
             self.clouds[slot].estimate_covariances(budget);
@@ -614,11 +651,12 @@ impl GraphSlam {
             let d = z.t.norm().max(0.05);
             let dt = kf.stamp_ns.saturating_sub(prev.stamp_ns) as f64 * 1e-9;
             let st = 1.0 / (self.p.odom_sigma_m_per_m * d);
+            let sz = 1.0 / (self.p.odom_sigma_vertical_m_per_m * d);
             let sr = 1.0
                 / (self.p.odom_sigma_rad_per_m * d)
                     .hypot(self.p.odom_sigma_rad_per_s * dt)
                     .max(1e-9);
-            let u = Matrix6::from_diagonal(&nalgebra::Vector6::new(st, st, st, sr, sr, sr));
+            let u = Matrix6::from_diagonal(&nalgebra::Vector6::new(st, st, sz, sr, sr, sr));
             // Robust too: spinning wheels (a rover stuck nose-up) report
             // travel that the scans do not see.
             self.factors.push(Factor::Between {
@@ -690,6 +728,7 @@ impl GraphSlam {
         self.next_victim = if s + 1 >= self.clouds.len() { 1 } else { s + 1 };
         self.clouds.swap(0, s);
         self.owner[s] = Some(k);
+        self.built[s] = true;
         self.owner[0] = None;
         // Freeze the oldest keyframes beyond the active window.
         let active = self.p.active_keyframes.max(2);
@@ -700,21 +739,25 @@ impl GraphSlam {
                 self.stats.frozen += 1;
             }
         }
-        self.rebuild_solver();
-        self.phase = Phase::Optimize(0);
+        self.phase = Phase::Analyse;
     }
 
-    fn optimize(&mut self, n: u32) {
+    /// One factorisation per step: a rejected step costs a step and the next
+    /// one damps more; at most twice `iterations_per_keyframe` calls.
+    fn optimize(&mut self, accepted: u32, calls: u32) {
         let Some(solver) = self.solver.as_mut() else {
             self.phase = Phase::Idle;
             return;
         };
         let step = solver.iterate(&mut self.vars, &self.factors);
         self.stats.lm_iterations += 1;
-        self.phase = if step == Step::Converged || n + 1 >= self.p.iterations_per_keyframe {
+        let accepted = accepted + matches!(step, Step::Accepted { .. }) as u32;
+        let calls = calls + 1;
+        let budget = self.p.iterations_per_keyframe;
+        self.phase = if step == Step::Converged || accepted >= budget || calls >= 2 * budget {
             Phase::Idle
         } else {
-            Phase::Optimize(n + 1)
+            Phase::Optimize { accepted, calls }
         };
     }
 
@@ -762,13 +805,12 @@ impl GraphSlam {
         if self.loop_closures.len() < self.loop_closures.capacity() {
             self.loop_closures.push((older, newer));
         }
-        self.rebuild_solver();
-        self.phase = Phase::Optimize(0);
+        self.phase = Phase::Analyse;
         Ok(())
     }
 
     fn rebuild_solver(&mut self) {
-        self.solver = match Solver::new(&self.vars, &self.factors, LmParams::default()) {
+        self.solver = match Solver::new(&self.vars, &self.factors, SLAM_LM) {
             Ok(s) => Some(s),
             Err(_) => {
                 self.stats.solver_failures += 1;

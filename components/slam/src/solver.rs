@@ -58,6 +58,10 @@ pub struct LmParams {
     /// Add the factors' second-order terms where they provide them
     /// (chordal factors): Newton instead of Gauss-Newton steps.
     pub newton: bool,
+    /// Factorisations one [`Solver::iterate`] may try (after a step that
+    /// raised the cost, with more damping). 1 bounds an iteration's time:
+    /// a rejected step is reported and the next call damps more.
+    pub attempts_per_iteration: u32,
 }
 
 impl Default for LmParams {
@@ -68,6 +72,7 @@ impl Default for LmParams {
             step_tolerance: 1e-10,
             refinement_steps: 2,
             newton: true,
+            attempts_per_iteration: 10,
         }
     }
 }
@@ -268,7 +273,7 @@ impl Solver {
         let mut newton = self.params.newton;
         let cost = self.assemble(vars, factors, newton);
         self.cost = cost;
-        for _ in 0..10 {
+        for _ in 0..self.params.attempts_per_iteration.max(1) {
             let Some(delta_max) = self.solve_damped() else {
                 if newton {
                     newton = false;
