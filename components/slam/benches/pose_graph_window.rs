@@ -11,6 +11,7 @@ use nalgebra::{Matrix3, Matrix6, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use speleo_slam::factors::{Factor, Robust, Var, VarKind};
+use speleo_slam::graph_slam::SLAM_LM;
 use speleo_slam::lie::Pose;
 use speleo_slam::solver::{LmParams, Solver};
 
@@ -90,14 +91,7 @@ fn graph(window: usize) -> (Vec<Var>, Vec<Factor>) {
 }
 
 /// As the SLAM back end runs it: Gauss-Newton steps, one factorisation a call.
-const LM: LmParams = LmParams {
-    initial_lambda: 1e-12,
-    relative_tolerance: 1e-5,
-    step_tolerance: 1e-10,
-    refinement_steps: 2,
-    newton: false,
-    attempts_per_iteration: 1,
-};
+const LM: LmParams = SLAM_LM;
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("pose_graph_window");

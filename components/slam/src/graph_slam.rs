@@ -238,9 +238,10 @@ struct Candidate {
 }
 
 const MAX_CANDIDATES: usize = 8;
-/// The pose graph has no chordal factors (nothing for Newton steps), and
-/// one factorisation per call keeps every step within its time.
-const SLAM_LM: LmParams = LmParams {
+/// The on-board solver settings: the pose graph has no chordal factors
+/// (nothing for Newton steps), and one factorisation per call keeps every
+/// step within its time.
+pub const SLAM_LM: LmParams = LmParams {
     initial_lambda: 1e-12,
     relative_tolerance: 1e-5,
     step_tolerance: 1e-10,
