@@ -242,6 +242,7 @@ pub struct SlamConfig {
     pub enabled: bool,
     pub keyframe_capacity: usize,
     pub active_keyframes: usize,
+    pub submap_keyframes: usize,
     pub keyframe_distance_m: f64,
     pub keyframe_angle_deg: f64,
     pub voxel_m: f64,
@@ -249,9 +250,12 @@ pub struct SlamConfig {
     pub neighbors: usize,
     pub loop_radius_m: f64,
     pub loop_min_gap: usize,
+    pub refine_distance_m: f64,
+    pub refine_mutual: bool,
     pub loop_verify_distance_m: f64,
     pub loop_max_fitness_m: f64,
     pub loop_min_inlier_fraction: f64,
+    pub odom_sigma_m_per_m: f64,
     pub odom_sigma_rad_per_s: f64,
     pub odom_sigma_vertical_m_per_m: f64,
     pub inclination_sigma_deg: f64,
@@ -259,6 +263,8 @@ pub struct SlamConfig {
     pub bias_prior_deg: f64,
     /// Points one SLAM step visits: the work quantum of the slam task.
     pub points_per_step: usize,
+    /// Factors one optimisation step linearises or costs.
+    pub factors_per_step: usize,
 }
 
 impl Default for SlamConfig {
@@ -268,6 +274,7 @@ impl Default for SlamConfig {
             enabled: true,
             keyframe_capacity: p.keyframe_capacity,
             active_keyframes: p.active_keyframes,
+            submap_keyframes: p.submap_keyframes,
             keyframe_distance_m: p.keyframe_distance_m,
             keyframe_angle_deg: p.keyframe_angle_deg,
             voxel_m: p.voxel_m,
@@ -275,15 +282,19 @@ impl Default for SlamConfig {
             neighbors: p.neighbors,
             loop_radius_m: p.loop_radius_m,
             loop_min_gap: p.loop_min_gap,
+            refine_distance_m: p.refine_distance_m,
+            refine_mutual: p.refine_mutual,
             loop_verify_distance_m: p.loop_verify_distance_m,
             loop_max_fitness_m: p.loop_max_fitness_m,
             loop_min_inlier_fraction: p.loop_min_inlier_fraction,
+            odom_sigma_m_per_m: p.odom_sigma_m_per_m,
             odom_sigma_rad_per_s: p.odom_sigma_rad_per_s,
             odom_sigma_vertical_m_per_m: p.odom_sigma_vertical_m_per_m,
             inclination_sigma_deg: p.inclination_sigma_deg,
             estimate_bias: p.estimate_bias,
             bias_prior_deg: p.bias_prior_deg,
             points_per_step: p.points_per_step,
+            factors_per_step: p.factors_per_step,
         }
     }
 }
@@ -293,6 +304,7 @@ impl SlamConfig {
         speleo_slam::graph_slam::SlamParams {
             keyframe_capacity: self.keyframe_capacity,
             active_keyframes: self.active_keyframes,
+            submap_keyframes: self.submap_keyframes,
             keyframe_distance_m: self.keyframe_distance_m,
             keyframe_angle_deg: self.keyframe_angle_deg,
             voxel_m: self.voxel_m,
@@ -300,15 +312,19 @@ impl SlamConfig {
             neighbors: self.neighbors,
             loop_radius_m: self.loop_radius_m,
             loop_min_gap: self.loop_min_gap,
+            refine_distance_m: self.refine_distance_m,
+            refine_mutual: self.refine_mutual,
             loop_verify_distance_m: self.loop_verify_distance_m,
             loop_max_fitness_m: self.loop_max_fitness_m,
             loop_min_inlier_fraction: self.loop_min_inlier_fraction,
+            odom_sigma_m_per_m: self.odom_sigma_m_per_m,
             odom_sigma_rad_per_s: self.odom_sigma_rad_per_s,
             odom_sigma_vertical_m_per_m: self.odom_sigma_vertical_m_per_m,
             inclination_sigma_deg: self.inclination_sigma_deg,
             estimate_bias: self.estimate_bias,
             bias_prior_deg: self.bias_prior_deg,
             points_per_step: self.points_per_step,
+            factors_per_step: self.factors_per_step,
             ..speleo_slam::graph_slam::SlamParams::default()
         }
     }
@@ -665,6 +681,20 @@ impl Config {
             1_000_000,
             "100..=1000000",
         )?;
+        range(
+            "slam.submap_keyframes",
+            sl.submap_keyframes,
+            1,
+            1000,
+            "1..=1000",
+        )?;
+        range(
+            "slam.factors_per_step",
+            sl.factors_per_step,
+            10,
+            1_000_000,
+            "10..=1000000",
+        )?;
         range("slam.neighbors", sl.neighbors, 1, 6, "1..=6")?;
         range(
             "slam.loop_min_inlier_fraction",
@@ -685,9 +715,11 @@ impl Config {
             ("slam.keyframe_angle_deg", sl.keyframe_angle_deg),
             ("slam.voxel_m", sl.voxel_m),
             ("slam.loop_radius_m", sl.loop_radius_m),
+            ("slam.refine_distance_m", sl.refine_distance_m),
             ("slam.loop_verify_distance_m", sl.loop_verify_distance_m),
             ("slam.loop_max_fitness_m", sl.loop_max_fitness_m),
             ("slam.loop_min_inlier_fraction", sl.loop_min_inlier_fraction),
+            ("slam.odom_sigma_m_per_m", sl.odom_sigma_m_per_m),
             ("slam.odom_sigma_rad_per_s", sl.odom_sigma_rad_per_s),
             (
                 "slam.odom_sigma_vertical_m_per_m",

@@ -35,8 +35,9 @@ fn defaults() -> Vec<TaskSpec> {
         TaskSpec::periodic("imu_driver", every, 300, Skip).safe(),
         TaskSpec::periodic("drive_driver", every, 300, Skip).safe(),
         TaskSpec::periodic("odometry", every, 300, ReuseLast),
-        // One unit of keyframe work a frame (prepare a cloud, one GICP, insert,
-        // one LM iteration): a keyframe takes about 12 frames.
+        // One bounded unit of keyframe work a frame (a part of a cloud's
+        // preparation or of a GICP pass, the insertion, the solver's analysis,
+        // a slice of factors of an LM iteration or its factorisation).
         TaskSpec::anytime(
             "slam",
             every,

@@ -50,7 +50,7 @@ pub struct SlamFigures {
     pub registrations: u64,
     pub registrations_rejected: u64,
     pub lm_iterations: u64,
-    pub frozen_keyframes: u64,
+    pub grouped_keyframes: u64,
     /// Loop closures added from outside the pipeline (injected faults).
     pub external_loop_closures: u64,
     pub keyframes_refused: u64,
@@ -108,7 +108,7 @@ pub fn figures(
         registrations: s.registrations,
         registrations_rejected: s.registrations_rejected,
         lm_iterations: s.lm_iterations,
-        frozen_keyframes: s.frozen,
+        grouped_keyframes: s.grouped,
         external_loop_closures: s.external_loop_closures,
         keyframes_refused: s.keyframes_refused,
         scans_busy: s.scans_busy,

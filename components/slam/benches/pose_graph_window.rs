@@ -2,20 +2,22 @@
 //! out-and-back drive: a chain of keyframes 1 m apart, registrations to
 //! the two previous ones, a loop closure from every returning keyframe to
 //! its outbound twin, inclination factors through the bias, and an active
-//! window of the newest keyframes (older ones frozen). Measures what one
-//! new keyframe costs: the structural analysis (`Solver::new`) and one
-//! Levenberg-Marquardt iteration, at several window sizes.
+//! window of the newest keyframes (older ones in rigid sub-maps of five, as
+//! on board). Measures what one new keyframe costs: the structural analysis
+//! (`Solver::new`) and one Levenberg-Marquardt iteration, with the on-board
+//! window and with every keyframe free.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use nalgebra::{Matrix3, Matrix6, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use speleo_slam::factors::{Factor, Robust, Var, VarKind};
+use speleo_slam::factors::{Factor, Rigid, Robust, Var, VarKind};
 use speleo_slam::graph_slam::SLAM_LM;
 use speleo_slam::lie::Pose;
 use speleo_slam::solver::{LmParams, Solver};
 
 const KEYFRAMES: usize = 540;
+const SUBMAP: usize = 5;
 
 /// Bias first, then keyframes; the true path goes out along x and back.
 fn graph(window: usize) -> (Vec<Var>, Vec<Factor>) {
@@ -41,6 +43,7 @@ fn graph(window: usize) -> (Vec<Var>, Vec<Factor>) {
         pose: Pose::identity(),
         kind: VarKind::Tilt,
         fixed: false,
+        rigid: None,
     }];
     let mut factors = vec![Factor::RotationPrior {
         i: 0,
@@ -52,8 +55,17 @@ fn graph(window: usize) -> (Vec<Var>, Vec<Factor>) {
         vars.push(Var {
             pose: noisy(truth(k)),
             kind: VarKind::Pose3,
-            fixed: k + window < KEYFRAMES,
+            fixed: false,
+            rigid: None,
         });
+        if k + window < KEYFRAMES && k % SUBMAP != 0 {
+            let root = k - k % SUBMAP + 1;
+            let offset = vars[root].pose.between(&vars[k + 1].pose);
+            vars[k + 1].rigid = Some(Rigid {
+                parent: root,
+                offset,
+            });
+        }
         let v = k + 1;
         factors.push(Factor::Inclination {
             pose: v,
@@ -95,7 +107,7 @@ const LM: LmParams = SLAM_LM;
 
 fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("pose_graph_window");
-    for window in [150, 400] {
+    for window in [100, KEYFRAMES] {
         let (vars, factors) = graph(window);
         g.bench_with_input(BenchmarkId::new("analyse", window), &window, |b, _| {
             b.iter(|| Solver::new(&vars, &factors, LM).map(|s| s.unknowns()))

@@ -94,6 +94,7 @@ pub fn optimize(g: &G2o, init: Init, max_iterations: u32) -> Result<BatchResult,
             pose: *p,
             kind,
             fixed: k == anchor || g.fixed[k],
+            rigid: None,
         })
         .collect();
     let factors: Vec<Factor> = g

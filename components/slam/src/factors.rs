@@ -42,6 +42,19 @@ pub struct Var {
     pub kind: VarKind,
     /// Held constant (the gauge, or a frozen keyframe).
     pub fixed: bool,
+    /// Rigidly attached to another variable: not a state of its own, its
+    /// pose follows the parent's (see [`Rigid`]).
+    pub rigid: Option<Rigid>,
+}
+
+/// A pose held at a fixed offset from a parent pose of the same kind:
+/// `pose = parent.pose * offset`. Old keyframes grouped this way into
+/// sub-maps keep every factor while the system shrinks to one block per
+/// group, so later loop closures can still bend the old trajectory.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rigid {
+    pub parent: usize,
+    pub offset: Pose,
 }
 
 /// Down-weighting of large residuals.
@@ -388,6 +401,7 @@ mod tests {
             pose: Pose::new(exp_so3(&Vector3::from(phi)), Vector3::from(t)),
             kind,
             fixed: false,
+            rigid: None,
         }
     }
 

@@ -14,7 +14,7 @@
 use heapless::Vec as HVec;
 use nalgebra::{Matrix3, Matrix6, Vector3};
 
-use crate::factors::{Factor, Robust, Var, VarKind};
+use crate::factors::{Factor, Rigid, Robust, Var, VarKind};
 use crate::lie::Pose;
 use crate::registration::gicp::{Aligner, Alignment, GicpParams, PreparedCloud};
 use crate::solver::{LmParams, Solver, Step};
@@ -24,8 +24,16 @@ use crate::solver::{LmParams, Solver, Step};
 pub struct SlamParams {
     /// Keyframes the store holds; when full, no more are added (reported).
     pub keyframe_capacity: usize,
-    /// Keyframes kept free in the optimisation; older ones are frozen.
+    /// Keyframes kept free in the optimisation, each a state of its own;
+    /// older ones join rigid sub-maps...
     pub active_keyframes: usize,
+    /// ...of this many keyframes, which move as one: the system keeps one
+    /// block per sub-map, so its size grows five times slower than the
+    /// trajectory, and a loop closure can still bend the whole path
+    /// (freezing the past could not: the return leg of an out-and-back
+    /// would be pinned to the outbound leg's drift). 1 keeps every
+    /// keyframe free.
+    pub submap_keyframes: usize,
     pub keyframe_distance_m: f64,
     pub keyframe_angle_deg: f64,
     /// Voxel size of the registration clouds.
@@ -40,15 +48,25 @@ pub struct SlamParams {
     /// within this distance of the new one.
     pub loop_radius_m: f64,
     pub loop_min_gap: usize,
-    /// Loops are verified by a second alignment that pairs points only
-    /// within this distance (the first one's reach is
-    /// `gicp.max_correspondence_m`)...
+    /// Every registration is refined by a second alignment that pairs
+    /// points only within this distance (the first one's reach is
+    /// `gicp.max_correspondence_m`, needed to converge from odometry). The
+    /// wide reach alone biases the motion short: where the new scan sees
+    /// beyond the old one's coverage, its points pair with the old scan's
+    /// last ones, up to a keyframe spacing back.
+    pub refine_distance_m: f64,
+    /// ...keeping only mutual nearest neighbours (`GicpParams::mutual`).
+    pub refine_mutual: bool,
+    /// Loops are refined within this distance, and verified on it...
     pub loop_verify_distance_m: f64,
     /// ...and accepted when its inlier RMSE is below this...
     pub loop_max_fitness_m: f64,
     /// ...and this share of the source points found a correspondence.
     pub loop_min_inlier_fraction: f64,
-    /// Odometry noise: standard deviation per metre driven.
+    /// Odometry noise: standard deviation per metre driven. Loose: the
+    /// leg-wheels over-read by a few percent (their rolling radius changes
+    /// with load and ground), and a tighter odometry pulls the GICP chain
+    /// long by that bias wherever the tube constrains the axis weakly.
     pub odom_sigma_m_per_m: f64,
     /// ...along the previous keyframe's z axis: the height gained comes
     /// from the IMU's gravity-referenced pitch, which slip barely touches.
@@ -69,6 +87,10 @@ pub struct SlamParams {
     /// Points one step of cloud work visits (downsampling, covariances, a
     /// part of a GICP pass): bounds the time of a step.
     pub points_per_step: usize,
+    /// Factors one step of Levenberg-Marquardt linearises or costs: with
+    /// the factorisation in a step of its own, this bounds the time of an
+    /// optimisation step however large the active graph grows.
+    pub factors_per_step: usize,
     /// Estimate the IMU-to-LiDAR bias (else it is held at the identity).
     pub estimate_bias: bool,
     /// Standard deviation of the bias prior (mounting tolerance), deg.
@@ -81,6 +103,7 @@ impl Default for SlamParams {
         SlamParams {
             keyframe_capacity: 1024,
             active_keyframes: 100,
+            submap_keyframes: 5,
             keyframe_distance_m: 1.0,
             keyframe_angle_deg: 15.0,
             voxel_m: 0.2,
@@ -89,10 +112,12 @@ impl Default for SlamParams {
             neighbor_radius_m: 8.0,
             loop_radius_m: 5.0,
             loop_min_gap: 25,
+            refine_distance_m: 0.25,
+            refine_mutual: true,
             loop_verify_distance_m: 0.4,
             loop_max_fitness_m: 0.18,
             loop_min_inlier_fraction: 0.4,
-            odom_sigma_m_per_m: 0.05,
+            odom_sigma_m_per_m: 0.2,
             odom_sigma_vertical_m_per_m: 0.05,
             odom_sigma_rad_per_m: 0.02,
             odom_sigma_rad_per_s: 1e-3,
@@ -101,6 +126,7 @@ impl Default for SlamParams {
             robust_scale: 3.0,
             iterations_per_keyframe: 6,
             points_per_step: 1200,
+            factors_per_step: 1000,
             estimate_bias: true,
             bias_prior_deg: 1.0,
             gicp: GicpParams {
@@ -176,7 +202,8 @@ impl std::error::Error for LoopClosureError {}
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SlamStats {
     pub keyframes: u64,
-    pub frozen: u64,
+    /// Keyframes that left the active window for a rigid sub-map.
+    pub grouped: u64,
     pub registrations: u64,
     pub registrations_rejected: u64,
     pub loop_closures: u64,
@@ -230,9 +257,10 @@ enum Phase {
 struct Candidate {
     keyframe: usize,
     is_loop: bool,
-    /// Loops are aligned twice: within `gicp.max_correspondence_m`, then
-    /// from there within `loop_verify_distance_m`, whose fitness and
-    /// overlap decide.
+    /// Every candidate is aligned twice: within
+    /// `gicp.max_correspondence_m`, then from there within
+    /// `refine_distance_m` (`loop_verify_distance_m` for a loop, whose
+    /// fitness and overlap then decide).
     refining: bool,
     result: Option<Alignment>,
 }
@@ -582,8 +610,14 @@ impl GraphSlam {
         let aligner = self.aligner.get_or_insert_with(|| Aligner::new(&init));
         let refining = self.candidates[i].refining;
         let params = if refining {
+            let (reach, mutual) = if self.candidates[i].is_loop {
+                (self.p.loop_verify_distance_m, false)
+            } else {
+                (self.p.refine_distance_m, self.p.refine_mutual)
+            };
             GicpParams {
-                max_correspondence_m: self.p.loop_verify_distance_m,
+                max_correspondence_m: reach,
+                mutual,
                 ..self.p.gicp
             }
         } else {
@@ -594,7 +628,7 @@ impl GraphSlam {
             return;
         }
         let result = aligner.result();
-        if self.candidates[i].is_loop && !refining {
+        if !refining {
             self.candidates[i].refining = true;
             self.aligner = Some(Aligner::new(&result.transform));
             return;
@@ -625,6 +659,7 @@ impl GraphSlam {
                 pose: Pose::identity(),
                 kind: VarKind::Tilt,
                 fixed: !self.p.estimate_bias,
+                rigid: None,
             });
             // Weak prior: the bias is small; gravity observes it over time.
             self.factors.push(Factor::RotationPrior {
@@ -637,6 +672,7 @@ impl GraphSlam {
             pose: predicted,
             kind: VarKind::Pose3,
             fixed: false,
+            rigid: None,
         });
         let var = k + 1;
         if k == 0 {
@@ -731,26 +767,39 @@ impl GraphSlam {
         self.owner[s] = Some(k);
         self.built[s] = true;
         self.owner[0] = None;
-        // Freeze the oldest keyframes beyond the active window.
+        // The keyframe leaving the active window joins its sub-map, led by
+        // the sub-map's first keyframe, at their present relative pose.
         let active = self.p.active_keyframes.max(2);
         if self.keyframes.len() > active {
-            let oldest = self.keyframes.len() - active;
-            if !self.vars[oldest].fixed {
-                self.vars[oldest].fixed = true;
-                self.stats.frozen += 1;
+            let leaving = self.keyframes.len() - active - 1;
+            let root = leaving - leaving % self.p.submap_keyframes.max(1);
+            if root != leaving && self.vars[leaving + 1].rigid.is_none() {
+                let offset = self
+                    .keyframe_pose(root)
+                    .between(&self.keyframe_pose(leaving));
+                self.vars[leaving + 1].rigid = Some(Rigid {
+                    parent: root + 1,
+                    offset,
+                });
+                self.stats.grouped += 1;
             }
         }
         self.phase = Phase::Analyse;
     }
 
-    /// One factorisation per step: a rejected step costs a step and the next
-    /// one damps more; at most twice `iterations_per_keyframe` calls.
+    /// A bounded part of an LM iteration per step (`factors_per_step`
+    /// factors, or one factorisation); a rejected iteration is followed by
+    /// one with more damping; at most twice `iterations_per_keyframe`
+    /// iterations.
     fn optimize(&mut self, accepted: u32, calls: u32) {
         let Some(solver) = self.solver.as_mut() else {
             self.phase = Phase::Idle;
             return;
         };
-        let step = solver.iterate(&mut self.vars, &self.factors);
+        let quantum = self.p.factors_per_step;
+        let Some(step) = solver.advance(&mut self.vars, &self.factors, quantum) else {
+            return;
+        };
         self.stats.lm_iterations += 1;
         let accepted = accepted + matches!(step, Step::Accepted { .. }) as u32;
         let calls = calls + 1;

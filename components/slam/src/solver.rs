@@ -15,7 +15,8 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side, Spec};
 use nalgebra::{Matrix6, Vector3};
 
-use crate::factors::{Factor, Var};
+use crate::factors::{Factor, Var, VarKind};
+use crate::lie::skew;
 
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum SolverError {
@@ -25,6 +26,9 @@ pub enum SolverError {
     BadVariable { factor: usize, var: usize },
     /// The sparse analysis failed (out of memory or index overflow).
     Analysis(String),
+    /// A rigid variable's parent is missing, itself rigid, or of another
+    /// kind than a full pose.
+    BadAttachment { var: usize },
 }
 
 impl std::fmt::Display for SolverError {
@@ -38,6 +42,10 @@ impl std::fmt::Display for SolverError {
                 )
             }
             SolverError::Analysis(e) => write!(f, "sparse analysis failed: {e}"),
+            SolverError::BadAttachment { var } => write!(
+                f,
+                "variable {var} is attached to a parent that is missing, attached itself, or not a full pose"
+            ),
         }
     }
 }
@@ -91,8 +99,14 @@ pub enum Step {
 /// The preallocated solver for one graph structure.
 pub struct Solver {
     params: LmParams,
-    /// Column offset of each variable in the system, `usize::MAX` if fixed.
+    /// Column offset of each variable in the system, `usize::MAX` if fixed;
+    /// a rigid variable has its parent's.
     offset: Vec<usize>,
+    /// The variable whose block each variable's factors go to: itself, or
+    /// its parent if it is rigid.
+    owner: Vec<usize>,
+    /// The rigid variables, moved with their parents.
+    rigid: Vec<usize>,
     n: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
@@ -109,7 +123,16 @@ pub struct Solver {
     delta: Vec<f64>,
     correction: Vec<f64>,
     diag: Vec<f64>,
-    backup: Vec<Var>,
+    /// The variables moved by the step being evaluated.
+    trial: Vec<Var>,
+    /// Where the current iteration stands (see [`Solver::advance`]).
+    stage: Stage,
+    /// Whether the current linearisation carries second-order terms.
+    newton_now: bool,
+    /// Factorisations tried in the current iteration.
+    attempts: u32,
+    /// Cost summed so far by the stage in progress.
+    partial_cost: f64,
     /// Factors touching a free variable: the others add a constant cost and
     /// nothing to the system, so a long frozen past costs nothing.
     active: Vec<usize>,
@@ -125,15 +148,19 @@ impl Solver {
     /// Analyse the structure of `factors` over `vars` (fixed variables are
     /// held constant).
     pub fn new(vars: &[Var], factors: &[Factor], params: LmParams) -> Result<Self, SolverError> {
-        let offset = block_order(vars, factors)?;
-        let n: usize = vars.iter().filter(|v| !v.fixed).map(|v| v.kind.dim()).sum();
+        let owner = owners(vars)?;
+        let offset = block_order(vars, factors, &owner)?;
+        let n: usize = (0..vars.len())
+            .filter(|&v| is_free(vars, v))
+            .map(|v| vars[v].kind.dim())
+            .sum();
         if n == 0 {
             return Err(SolverError::NoFreeVariables);
         }
         // Neighbours of each free variable that come earlier in the system.
         let mut earlier: Vec<Vec<usize>> = vec![Vec::new(); vars.len()];
         for f in factors {
-            let (v, nv) = f.vars();
+            let (v, nv) = mapped_vars(f, &owner);
             if nv == 2 && offset[v[0]] != usize::MAX && offset[v[1]] != usize::MAX {
                 let (a, b) = order(&offset, v[0], v[1]);
                 if a != b {
@@ -150,7 +177,7 @@ impl Solver {
         col_ptr.push(0);
         let mut row_idx = Vec::new();
         // Columns in system order.
-        let mut in_order: Vec<usize> = (0..vars.len()).filter(|&v| !vars[v].fixed).collect();
+        let mut in_order: Vec<usize> = (0..vars.len()).filter(|&v| is_free(vars, v)).collect();
         in_order.sort_unstable_by_key(|&v| offset[v]);
         for v in in_order {
             let var = &vars[v];
@@ -166,7 +193,7 @@ impl Solver {
         }
         let mut pair_pre = vec![usize::MAX; factors.len()];
         for (fi, f) in factors.iter().enumerate() {
-            let (v, nv) = f.vars();
+            let (v, nv) = mapped_vars(f, &owner);
             if nv == 2 && offset[v[0]] != usize::MAX && offset[v[1]] != usize::MAX {
                 let (a, b) = order(&offset, v[0], v[1]);
                 if a != b {
@@ -185,8 +212,11 @@ impl Solver {
             .iter()
             .enumerate()
             .filter(|(_, f)| {
-                let (v, nv) = f.vars();
-                v[..nv].iter().any(|&x| offset[x] != usize::MAX)
+                let (v, nv) = mapped_vars(f, &owner);
+                // Between two members of one rigid group: a constant.
+                let (orig, _) = f.vars();
+                let internal = nv == 2 && v[0] == v[1] && orig[0] != orig[1];
+                !internal && v[..nv].iter().any(|&x| offset[x] != usize::MAX)
             })
             .map(|(i, _)| i)
             .collect();
@@ -209,9 +239,12 @@ impl Solver {
             symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Spec::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
+        let rigid = (0..vars.len()).filter(|&v| owner[v] != v).collect();
         Ok(Solver {
             params,
             offset,
+            owner,
+            rigid,
             n,
             col_ptr,
             row_idx,
@@ -225,7 +258,11 @@ impl Solver {
             delta: vec![0.0; n],
             correction: vec![0.0; n],
             diag: vec![0.0; n],
-            backup: vars.to_vec(),
+            trial: vars.to_vec(),
+            stage: Stage::Start,
+            newton_now: params.newton,
+            attempts: 0,
+            partial_cost: 0.0,
             active,
             lambda: params.initial_lambda,
             cost: f64::NAN,
@@ -260,62 +297,139 @@ impl Solver {
         self.converged = false;
         self.cost = f64::NAN;
         self.lambda = self.params.initial_lambda;
+        self.stage = Stage::Start;
     }
 
-    /// One Levenberg-Marquardt iteration on `vars`.
+    /// One Levenberg-Marquardt iteration on `vars`, start to end.
     pub fn iterate(&mut self, vars: &mut [Var], factors: &[Factor]) -> Step {
-        if self.converged {
-            return Step::Converged;
+        loop {
+            if let Some(step) = self.advance(vars, factors, usize::MAX) {
+                return step;
+            }
         }
-        self.iterations += 1;
-        // Newton where factors give their curvature; if that step cannot be
-        // factorised or does not lower the cost, Gauss-Newton, then damping.
-        let mut newton = self.params.newton;
-        let cost = self.assemble(vars, factors, newton);
-        self.cost = cost;
-        for _ in 0..self.params.attempts_per_iteration.max(1) {
-            let Some(delta_max) = self.solve_damped() else {
-                if newton {
-                    newton = false;
-                    self.assemble(vars, factors, false);
+    }
+
+    /// One bounded part of an iteration: linearise or evaluate at most
+    /// `quantum` factors, or factorise and solve once. Returns the
+    /// iteration's outcome when it ends, `None` while it is under way.
+    /// `vars` change only when a step is accepted, so a caller may read
+    /// them between parts; it must not change them or `factors` until the
+    /// iteration ends (or it builds a new solver).
+    pub fn advance(
+        &mut self,
+        vars: &mut [Var],
+        factors: &[Factor],
+        quantum: usize,
+    ) -> Option<Step> {
+        let quantum = quantum.max(1);
+        match self.stage {
+            Stage::Start => {
+                if self.converged {
+                    return Some(Step::Converged);
+                }
+                self.iterations += 1;
+                self.attempts = 0;
+                follow_parents(vars, &self.rigid);
+                // Newton where factors give their curvature; if that step
+                // cannot be factorised or does not lower the cost,
+                // Gauss-Newton, then damping.
+                self.newton_now = self.params.newton;
+                self.begin_assembly();
+                None
+            }
+            Stage::Assemble(from) => {
+                let to = from.saturating_add(quantum).min(self.active.len());
+                self.partial_cost += self.assemble_range(vars, factors, from..to);
+                if to == self.active.len() {
+                    self.end_assembly();
+                    self.cost = self.partial_cost;
+                    self.stage = Stage::Solve;
                 } else {
-                    self.lambda *= 10.0;
+                    self.stage = Stage::Assemble(to);
                 }
-                continue;
-            };
-            if delta_max < self.params.step_tolerance {
-                self.converged = true;
-                return Step::Converged;
+                None
             }
-            self.backup.copy_from_slice(vars);
-            self.apply(vars);
-            let new_cost = self.active_cost(vars, factors);
-            let predicted = self.predicted_decrease();
-            let rho = (cost - new_cost) / predicted.max(1e-300);
-            if new_cost < cost && rho > 0.0 {
-                // Nielsen's update of the damping, allowed to fall faster.
-                let t = 2.0 * rho - 1.0;
-                self.lambda *= 0.1f64.max(1.0 - t * t * t);
-                self.lambda = self.lambda.max(1e-15);
-                if (cost - new_cost) <= self.params.relative_tolerance * cost {
-                    self.converged = true;
+            Stage::Solve => self.solve_stage(vars),
+            Stage::Evaluate(from) => {
+                let to = from.saturating_add(quantum).min(self.active.len());
+                let trial = &self.trial;
+                self.partial_cost += self.active[from..to]
+                    .iter()
+                    .map(|&fi| factors[fi].cost(trial))
+                    .sum::<f64>();
+                if to < self.active.len() {
+                    self.stage = Stage::Evaluate(to);
+                    return None;
                 }
-                self.cost = new_cost;
-                return Step::Accepted { cost: new_cost };
-            }
-            vars.copy_from_slice(&self.backup);
-            if newton {
-                newton = false;
-                self.assemble(vars, factors, false);
-                continue;
-            }
-            self.lambda *= 4.0;
-            if self.lambda > 1e16 {
-                self.converged = true;
-                return Step::Converged;
+                self.judge(vars)
             }
         }
-        Step::Rejected
+    }
+
+    /// Factorise the damped system and solve for a step, or give up on it.
+    fn solve_stage(&mut self, vars: &[Var]) -> Option<Step> {
+        self.attempts += 1;
+        let Some(delta_max) = self.solve_damped() else {
+            if self.newton_now {
+                self.newton_now = false;
+                self.begin_assembly();
+                return None;
+            }
+            self.lambda *= 10.0;
+            return self.next_attempt();
+        };
+        if delta_max < self.params.step_tolerance {
+            self.converged = true;
+            self.stage = Stage::Start;
+            return Some(Step::Converged);
+        }
+        self.trial.copy_from_slice(vars);
+        self.apply_to_trial();
+        self.partial_cost = 0.0;
+        self.stage = Stage::Evaluate(0);
+        None
+    }
+
+    /// Keep the evaluated step if it lowered the cost.
+    fn judge(&mut self, vars: &mut [Var]) -> Option<Step> {
+        let (cost, new_cost) = (self.cost, self.partial_cost);
+        let predicted = self.predicted_decrease();
+        let rho = (cost - new_cost) / predicted.max(1e-300);
+        if new_cost < cost && rho > 0.0 {
+            vars.copy_from_slice(&self.trial);
+            // Nielsen's update of the damping, allowed to fall faster.
+            let t = 2.0 * rho - 1.0;
+            self.lambda *= 0.1f64.max(1.0 - t * t * t);
+            self.lambda = self.lambda.max(1e-15);
+            if (cost - new_cost) <= self.params.relative_tolerance * cost {
+                self.converged = true;
+            }
+            self.cost = new_cost;
+            self.stage = Stage::Start;
+            return Some(Step::Accepted { cost: new_cost });
+        }
+        if self.newton_now {
+            self.newton_now = false;
+            self.begin_assembly();
+            return None;
+        }
+        self.lambda *= 4.0;
+        if self.lambda > 1e16 {
+            self.converged = true;
+            self.stage = Stage::Start;
+            return Some(Step::Converged);
+        }
+        self.next_attempt()
+    }
+
+    /// Another factorisation with more damping, if the iteration has one left.
+    fn next_attempt(&mut self) -> Option<Step> {
+        if self.attempts >= self.params.attempts_per_iteration.max(1) {
+            self.stage = Stage::Start;
+            return Some(Step::Rejected);
+        }
+        self.stage = Stage::Solve;
+        None
     }
 
     /// Run until converged or `max_iterations`; returns the final cost.
@@ -328,18 +442,25 @@ impl Solver {
         factors.iter().map(|f| f.cost(vars)).sum()
     }
 
-    /// Cost of the factors that touch free variables.
-    fn active_cost(&self, vars: &[Var], factors: &[Factor]) -> f64 {
-        self.active.iter().map(|&fi| factors[fi].cost(vars)).sum()
-    }
-
-    /// Build J^T J (upper) into `values` and -J^T r into `rhs`; returns the
-    /// cost of the active factors.
-    fn assemble(&mut self, vars: &[Var], factors: &[Factor], curvature: bool) -> f64 {
+    /// Clear the system for a new linearisation.
+    fn begin_assembly(&mut self) {
         self.values.iter_mut().for_each(|v| *v = 0.0);
         self.rhs.iter_mut().for_each(|v| *v = 0.0);
+        self.partial_cost = 0.0;
+        self.stage = Stage::Assemble(0);
+    }
+
+    /// Add the active factors `range` to J^T J (upper, in `values`) and
+    /// -J^T r (in `rhs`); returns their cost.
+    fn assemble_range(
+        &mut self,
+        vars: &[Var],
+        factors: &[Factor],
+        range: core::ops::Range<usize>,
+    ) -> f64 {
+        let curvature = self.newton_now;
         let mut cost = 0.0;
-        for i in 0..self.active.len() {
+        for i in range {
             let fi = self.active[i];
             let f = &factors[fi];
             let mut lin = f.linearize(vars);
@@ -353,6 +474,14 @@ impl Solver {
                 lin.j[0] *= w;
                 lin.j[1] *= w;
             }
+            // A rigid variable's Jacobian, carried to its parent's tangent.
+            let own = lin.vars;
+            for (a, &v) in own.iter().enumerate().take(lin.nvars) {
+                if self.owner[v] != v {
+                    lin.j[a] *= rigid_tangent_map(vars, v);
+                    lin.vars[a] = self.owner[v];
+                }
+            }
             for a in 0..lin.nvars {
                 let va = lin.vars[a];
                 if self.offset[va] == usize::MAX {
@@ -362,7 +491,7 @@ impl Solver {
                 for (k, &c) in vars[va].kind.columns().iter().enumerate() {
                     self.rhs[self.offset[va] + k] -= g[c];
                 }
-                if curvature {
+                if curvature && own[a] == va {
                     if let Some(c) = f.curvature(vars) {
                         let mut h = Matrix6::zeros();
                         h.fixed_view_mut::<3, 3>(3, 3).copy_from(&c[a]);
@@ -379,11 +508,15 @@ impl Solver {
                 }
             }
         }
+        cost
+    }
+
+    /// Keep the undamped diagonal, which the damping scales.
+    fn end_assembly(&mut self) {
         for k in 0..self.n {
             // The diagonal entry is the last of each column (rows ascend).
             self.diag[k] = self.values[self.col_ptr[k + 1] - 1].clamp(1e-9, 1e32);
         }
-        cost
     }
 
     /// Add `h = J_a^T J_b` (over full tangents) into the system at the
@@ -482,8 +615,9 @@ impl Solver {
         p
     }
 
-    fn apply(&self, vars: &mut [Var]) {
-        for (v, &o) in vars.iter_mut().zip(self.offset.iter()) {
+    /// Move `trial` (a copy of the variables) by the solved step.
+    fn apply_to_trial(&mut self) {
+        for (v, &o) in self.trial.iter_mut().zip(self.offset.iter()) {
             if o == usize::MAX {
                 continue;
             }
@@ -496,14 +630,86 @@ impl Solver {
                 &Vector3::new(t[3], t[4], t[5]),
             );
         }
+        follow_parents(&mut self.trial, &self.rigid);
     }
+}
+
+/// Whether variable `v` is a state of the system.
+fn is_free(vars: &[Var], v: usize) -> bool {
+    !vars[v].fixed && vars[v].rigid.is_none()
+}
+
+/// Each variable's owner (itself, or its parent if rigid), checked.
+fn owners(vars: &[Var]) -> Result<Vec<usize>, SolverError> {
+    let mut owner: Vec<usize> = (0..vars.len()).collect();
+    for (v, x) in vars.iter().enumerate() {
+        if let Some(r) = x.rigid {
+            let ok = r.parent != v
+                && vars.get(r.parent).is_some_and(|p| {
+                    p.rigid.is_none() && p.kind == VarKind::Pose3 && x.kind == VarKind::Pose3
+                });
+            if !ok {
+                return Err(SolverError::BadAttachment { var: v });
+            }
+            owner[v] = r.parent;
+        }
+    }
+    Ok(owner)
+}
+
+/// A factor's variables with rigid ones replaced by their parents.
+fn mapped_vars(f: &Factor, owner: &[usize]) -> ([usize; 2], usize) {
+    let (v, nv) = f.vars();
+    let map = |x: usize| owner.get(x).copied().unwrap_or(x);
+    ([map(v[0]), map(v[1])], nv)
+}
+
+/// Put rigid variables back at their offsets from their parents.
+fn follow_parents(vars: &mut [Var], rigid: &[usize]) {
+    for &v in rigid {
+        if let Some(r) = vars[v].rigid {
+            vars[v].pose = vars[r.parent].pose.compose(&r.offset);
+        }
+    }
+}
+
+/// d(tangent of rigid `v`) / d(tangent of its parent P), for `v = P * O`
+/// under the retraction `(t + dt, R Exp(phi))`: phi_v = O.r^T phi and
+/// dt_v = dt - P.r [O.t]x phi.
+fn rigid_tangent_map(vars: &[Var], v: usize) -> Matrix6<f64> {
+    let mut m = Matrix6::identity();
+    if let Some(r) = vars[v].rigid {
+        let pr = vars[r.parent].pose.r;
+        m.fixed_view_mut::<3, 3>(0, 3)
+            .copy_from(&(-(pr * skew(&r.offset.t))));
+        m.fixed_view_mut::<3, 3>(3, 3)
+            .copy_from(&r.offset.r.transpose());
+    }
+    m
+}
+
+/// Where an iteration stands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    /// Between iterations.
+    Start,
+    /// Linearising the active factors from this index on.
+    Assemble(usize),
+    /// Factorising and solving the damped system.
+    Solve,
+    /// Costing the trial step, active factors from this index on.
+    Evaluate(usize),
 }
 
 /// System offsets of the variables (`usize::MAX` if fixed), in an
 /// approximate-minimum-degree order of the block graph: ordering blocks
 /// rather than scalars is cheaper and keeps each pose's 6 columns together.
-fn block_order(vars: &[Var], factors: &[Factor]) -> Result<Vec<usize>, SolverError> {
-    let free: Vec<usize> = (0..vars.len()).filter(|&v| !vars[v].fixed).collect();
+fn block_order(
+    vars: &[Var],
+    factors: &[Factor],
+    owner: &[usize],
+) -> Result<Vec<usize>, SolverError> {
+    let free: Vec<usize> = (0..vars.len()).filter(|&v| is_free(vars, v)).collect();
     if free.is_empty() {
         return Err(SolverError::NoFreeVariables);
     }
@@ -520,6 +726,7 @@ fn block_order(vars: &[Var], factors: &[Factor]) -> Result<Vec<usize>, SolverErr
                 return Err(SolverError::BadVariable { factor: fi, var: x });
             }
         }
+        let (v, _) = mapped_vars(f, owner);
         if nv == 2 && block[v[0]] != usize::MAX && block[v[1]] != usize::MAX {
             let (a, b) = (block[v[0]].min(block[v[1]]), block[v[0]].max(block[v[1]]));
             upper[b].push(a);
@@ -585,5 +792,160 @@ fn order(offset: &[usize], x: usize, y: usize) -> (usize, usize) {
         (x, y)
     } else {
         (y, x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::factors::{Rigid, Robust};
+    use crate::lie::{exp_so3, Pose};
+
+    fn pose(phi: [f64; 3], t: [f64; 3]) -> Pose {
+        Pose::new(exp_so3(&Vector3::from(phi)), Vector3::from(t))
+    }
+
+    fn free(p: Pose) -> Var {
+        Var {
+            pose: p,
+            kind: VarKind::Pose3,
+            fixed: false,
+            rigid: None,
+        }
+    }
+
+    /// A factor on a rigid variable, differentiated through its parent,
+    /// matches central differences of the residual when the parent moves.
+    #[test]
+    fn a_rigid_variables_jacobian_carries_to_its_parent() {
+        let parent = pose([0.3, -0.2, 1.1], [2.0, -1.0, 0.5]);
+        let offset = pose([-0.1, 0.25, 0.4], [0.7, 0.3, -0.2]);
+        let mut vars = vec![
+            free(parent),
+            Var {
+                rigid: Some(Rigid { parent: 0, offset }),
+                ..free(parent.compose(&offset))
+            },
+            free(pose([0.05, 0.1, -0.3], [3.0, 0.2, 0.1])),
+        ];
+        let f = Factor::Between {
+            i: 1,
+            j: 2,
+            z: pose([0.0, 0.1, 0.2], [1.0, 0.0, 0.0]),
+            sqrt_info: Matrix6::from_diagonal(&nalgebra::Vector6::new(
+                1.0, 2.0, 3.0, 4.0, 5.0, 6.0,
+            )),
+            robust: Robust::None,
+        };
+        let lin = f.linearize(&vars);
+        let j = lin.j[0] * rigid_tangent_map(&vars, 1);
+        let h = 1e-6;
+        for k in 0..6 {
+            let mut d = [0.0; 6];
+            let mut residual = |vars: &mut Vec<Var>, s: f64| {
+                d[k] = s;
+                vars[0].pose = parent.retract(
+                    &Vector3::new(d[0], d[1], d[2]),
+                    &Vector3::new(d[3], d[4], d[5]),
+                );
+                follow_parents(vars, &[1]);
+                f.linearize(vars).r
+            };
+            let plus = residual(&mut vars, h);
+            let minus = residual(&mut vars, -h);
+            let numeric = (plus - minus) / (2.0 * h);
+            for row in 0..lin.rows {
+                assert!(
+                    (numeric[row] - j[(row, k)]).abs() < 1e-6,
+                    "row {row} col {k}: numeric {} analytic {}",
+                    numeric[row],
+                    j[(row, k)]
+                );
+            }
+        }
+    }
+
+    /// A chain whose middle poses ride rigidly on their group's first pose:
+    /// with exact measurements the groups fall back into place, and the
+    /// measurements between members of one group cost nothing.
+    #[test]
+    fn rigid_groups_converge_like_the_poses_they_carry() {
+        let truth: Vec<Pose> = (0..12)
+            .map(|k| {
+                pose(
+                    [0.0, 0.02 * k as f64, 0.1 * k as f64],
+                    [k as f64, 0.3 * k as f64, 0.0],
+                )
+            })
+            .collect();
+        let mut vars: Vec<Var> = truth.iter().map(|p| free(*p)).collect();
+        let mut factors = vec![Factor::Anchor {
+            i: 0,
+            position: truth[0].t,
+            yaw: truth[0].yaw(),
+            sqrt_weight: 1e3,
+        }];
+        for k in 1..12 {
+            for back in 1..=2.min(k) {
+                factors.push(Factor::Between {
+                    i: k - back,
+                    j: k,
+                    z: truth[k - back].between(&truth[k]),
+                    sqrt_info: Matrix6::identity() * 10.0,
+                    robust: Robust::Cauchy(3.0),
+                });
+            }
+        }
+        // Roll and pitch of the anchor: a prior on its rotation.
+        factors.push(Factor::RotationPrior {
+            i: 0,
+            r: truth[0].r,
+            sqrt_weight: 10.0,
+        });
+        // Groups of four: 0..4, 4..8, 8..12, members at their true offsets.
+        for k in 0..12 {
+            if k % 4 != 0 {
+                let root = k - k % 4;
+                vars[k].rigid = Some(Rigid {
+                    parent: root,
+                    offset: truth[root].between(&truth[k]),
+                });
+            }
+        }
+        // Move the roots away.
+        for root in [4, 8] {
+            vars[root].pose = vars[root].pose.retract(
+                &Vector3::new(0.3, -0.2, 0.1),
+                &Vector3::new(0.02, -0.03, 0.05),
+            );
+        }
+        let mut solver = Solver::new(
+            &vars,
+            &factors,
+            LmParams {
+                newton: false,
+                ..LmParams::default()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(solver.unknowns(), 18, "three roots of six unknowns");
+        let cost = solver.solve(&mut vars, &factors, 20);
+        assert!(cost < 1e-16, "cost {cost}");
+        assert!(solver.iterations <= 8, "{} iterations", solver.iterations);
+        for (k, t) in truth.iter().enumerate() {
+            assert!((vars[k].pose.t - t.t).norm() < 1e-7, "pose {k} off");
+        }
+    }
+
+    #[test]
+    fn an_attachment_to_a_rigid_parent_is_refused() {
+        let p = pose([0.0; 3], [0.0; 3]);
+        let rigid = |parent| Var {
+            rigid: Some(Rigid { parent, offset: p }),
+            ..free(p)
+        };
+        let vars = vec![free(p), rigid(0), rigid(1)];
+        let err = Solver::new(&vars, &[], LmParams::default()).err();
+        assert_eq!(err, Some(SolverError::BadAttachment { var: 2 }));
     }
 }

@@ -52,6 +52,7 @@ fn build(truth: &[Pose], bias: &Matrix3<f64>, rng: &mut ChaCha8Rng, wrong_loop: 
         pose: Pose::identity(),
         kind: VarKind::Tilt,
         fixed: false,
+        rigid: None,
     }];
     let mut factors = vec![Factor::Anchor {
         i: 1,
@@ -81,6 +82,7 @@ fn build(truth: &[Pose], bias: &Matrix3<f64>, rng: &mut ChaCha8Rng, wrong_loop: 
             pose: dead,
             kind: VarKind::Pose3,
             fixed: false,
+            rigid: None,
         });
         // The IMU sees gravity through the bias.
         let up = bias.transpose() * x.r.transpose() * Vector3::z();

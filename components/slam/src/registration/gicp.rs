@@ -79,6 +79,12 @@ pub struct GicpParams {
     /// finite along directions the geometry leaves unconstrained (a
     /// corridor's axis) without slowing the constrained ones.
     pub damping: f64,
+    /// Keep only mutual nearest neighbours: the target point's nearest
+    /// source point must be the one that found it. Where the source sees
+    /// beyond the target's coverage, its edge points pair with the
+    /// target's last points, which have nearer partners of their own:
+    /// the check drops those pairs, which pull the motion short.
+    pub mutual: bool,
 }
 
 impl Default for GicpParams {
@@ -90,6 +96,7 @@ impl Default for GicpParams {
             rotation_eps_rad: 0.1f64.to_radians(),
             kernel: Kernel::None,
             damping: 1e-3,
+            mutual: false,
         }
     }
 }
@@ -379,7 +386,7 @@ fn accumulate(
     let end = start.saturating_add(max_points).min(n);
     let sp = &source.points()[start..end];
     let sc = &source.covariances()[start..end];
-    for (p, cs) in sp.iter().zip(sc) {
+    for (i, (p, cs)) in sp.iter().zip(sc).enumerate() {
         let pv = Vector3::new(p[0], p[1], p[2]);
         let x = rm * pv + t;
         let xa = [x.x, x.y, x.z];
@@ -404,6 +411,18 @@ fn accumulate(
         acc.prev = Some(nn.index as usize);
         let j = nn.index as usize;
         let q = &tpts[j];
+        if params.mutual {
+            // The target point in the source frame; its nearest source
+            // point lies within the pair's distance (this one is there).
+            let back = rt * (Vector3::new(q[0], q[1], q[2]) - t);
+            let own = start + i;
+            let mine = source
+                .tree
+                .nearest(&[back.x, back.y, back.z], nn.dist_sq * (1.0 + 1e-9) + 1e-12);
+            if mine.is_some_and(|m| m.index as usize != own) {
+                continue;
+            }
+        }
         // Everything in the source frame: residual e = p - R^T (q - t) and
         // information W = (R^T C_t R + C_s)^-1, so that s = e^T W e.
         let e = rt * (x - Vector3::new(q[0], q[1], q[2]));
