@@ -59,6 +59,8 @@ pub struct SlamFigures {
     pub scan_points_dropped: u64,
     /// Angle of the estimated IMU-to-LiDAR bias rotation.
     pub bias_deg: f64,
+    /// The odometry's distance scale learned from the registrations.
+    pub odometry_scale: f64,
     /// Against ground truth (simulation only): keyframe positions.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ate_mean_m: Option<f64>,
@@ -114,6 +116,7 @@ pub fn figures(
         scans_busy: s.scans_busy,
         scan_points_dropped: s.scan_points_dropped,
         bias_deg: angle(&b),
+        odometry_scale: slam.odometry_scale(),
         ..SlamFigures::default()
     };
     if let Some([r, p, y]) = misalignment_rpy_deg {

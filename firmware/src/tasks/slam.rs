@@ -127,7 +127,8 @@ impl SlamTask {
         self.times.clear();
         self.points.clear();
         for p in &cloud.points {
-            if p.distance < MIN_RANGE_M || self.raw.len() == self.raw.capacity() {
+            let far = p.distance as f64 > self.slam.params().max_range_m;
+            if p.distance < MIN_RANGE_M || far || self.raw.len() == self.raw.capacity() {
                 continue;
             }
             self.raw.push([p.x, p.y, p.z]);
@@ -151,6 +152,9 @@ impl SlamTask {
             self.points.push([v.x, v.y, v.z]);
         }
         let history = &bus.odom_history;
+        let slam = &self.slam;
+        // The odometry's motion since the first firing, at the distance
+        // scale the registrations have measured.
         self.points_not_deskewed += deskew(
             &mut self.points[from..to],
             &self.times[from..to],
@@ -158,7 +162,11 @@ impl SlamTask {
             |dt| {
                 history
                     .at(t0 + (dt * 1e9) as u64)
-                    .map(|iso: Isometry3<f64>| Pose::from_isometry(&iso))
+                    .map(|iso: Isometry3<f64>| {
+                        odom0.compose(
+                            &slam.scale_odometry(&odom0.between(&Pose::from_isometry(&iso))),
+                        )
+                    })
             },
         ) as u64;
         if to < self.raw.len() {
