@@ -1,0 +1,436 @@
+//! The map: parameters, insertion, queries, eviction.
+
+use nalgebra::Isometry3;
+
+use super::index::{CellIndex, Probe};
+use super::patch::{self, CellRule, CellUpdate, Patch};
+use crate::{floor_i32, resident_buffer, ParamsError};
+
+/// Cells beyond this many from the origin (along x or y) are out of range:
+/// keeps cell coordinates and their arithmetic far from `i32` overflow.
+const MAX_CELL_COORD: f64 = (1u32 << 30) as f64;
+/// Heights beyond this (m) are out of range (f32 storage keeps ~0.1 mm
+/// precision up to here).
+const MAX_HEIGHT_M: f64 = 1.0e3;
+/// Patches per cell are stored in a fixed stride of at most this many.
+pub const MAX_PATCHES_PER_CELL: usize = 16;
+/// Cells a map may hold: cell numbers fit in `u32` with room for the empty
+/// marker, and the table size cannot overflow.
+pub const MAX_CELLS: usize = 1 << 28;
+
+/// Settings of a multi-level surface map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MlsParams {
+    /// Cell side (m).
+    pub resolution_m: f64,
+    /// Cells the table holds (at most [`MAX_CELLS`]); when full, points
+    /// falling in new cells are dropped and counted.
+    pub max_cells: usize,
+    /// Surface patches a cell holds (at most [`MAX_PATCHES_PER_CELL`]); a
+    /// point that would need one more is dropped and counted.
+    pub max_patches_per_cell: usize,
+    /// Points farther than this in height from a patch's interval belong to
+    /// another level (m).
+    pub gap_m: f32,
+    /// A patch whose points span more height than this is vertical (m).
+    /// 0.25 by default: a 45-degree slope spans 0.1 m over a 0.1 m cell and
+    /// +-3 sigma of 2 cm range noise add 0.12 m, so ground the rover can
+    /// drive stays horizontal, while anything steeper than about 50 degrees
+    /// (and every wall) turns vertical. Kept below `gap_m` so that a patch
+    /// bridging a gap is already a wall.
+    pub vertical_threshold_m: f32,
+    /// Range noise of the sensor (1 sigma, m); its square is the height
+    /// variance of every point (an upper bound: only a vertical ray puts
+    /// all of the range error into height).
+    pub range_noise_m: f32,
+}
+
+impl Default for MlsParams {
+    fn default() -> Self {
+        MlsParams {
+            resolution_m: 0.1,
+            max_cells: 1 << 18,
+            max_patches_per_cell: 4,
+            gap_m: 0.3,
+            vertical_threshold_m: 0.25,
+            range_noise_m: 0.02,
+        }
+    }
+}
+
+impl MlsParams {
+    fn validate(&self) -> Result<(), ParamsError> {
+        let positive = |v: f64, name| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(ParamsError::NotPositive(name))
+            }
+        };
+        let non_negative = |v: f32, name| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(ParamsError::Negative(name))
+            }
+        };
+        positive(self.resolution_m, "resolution_m")?;
+        non_negative(self.gap_m, "gap_m")?;
+        non_negative(self.vertical_threshold_m, "vertical_threshold_m")?;
+        non_negative(self.range_noise_m, "range_noise_m")
+    }
+}
+
+/// What one insertion did with its points.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct InsertStats {
+    /// Points offered.
+    pub points: u64,
+    /// Points merged into the map.
+    pub inserted: u64,
+    /// NaN or infinite points (or a non-finite pose), skipped.
+    pub non_finite: u64,
+    /// Points too far from the origin to index, skipped.
+    pub out_of_range: u64,
+    /// Points dropped: their cell already held the maximum of patches.
+    pub dropped_patch_limit: u64,
+    /// Points dropped: their cell was new and the table was full.
+    pub dropped_map_full: u64,
+}
+
+/// The map's state and totals since construction or the last
+/// [`MlsMap::clear`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MlsStats {
+    /// Cells in use.
+    pub cells: usize,
+    /// Capacity in cells.
+    pub max_cells: usize,
+    /// Patches over all cells.
+    pub patches: usize,
+    /// Points merged into the map.
+    pub inserted: u64,
+    /// Points dropped for want of room: `dropped_patch_limit +
+    /// dropped_map_full`.
+    pub dropped_points: u64,
+    pub dropped_patch_limit: u64,
+    pub dropped_map_full: u64,
+    pub non_finite: u64,
+    pub out_of_range: u64,
+    /// Every cell is in use: points in new cells are being dropped.
+    pub full: bool,
+    /// Bytes of the fixed buffers (taken at construction, never grown).
+    pub memory_bytes: usize,
+}
+
+/// A multi-level surface map of fixed capacity; see the [module
+/// documentation](super).
+pub struct MlsMap {
+    params: MlsParams,
+    inv_res: f64,
+    rule: CellRule,
+    /// Patch slots per cell.
+    stride: usize,
+    max_cells: usize,
+    index: CellIndex,
+    /// Per cell, in insertion order (compacted by eviction): coordinates,
+    /// patch count, and `stride` patch slots.
+    keys: Vec<(i32, i32)>,
+    lens: Vec<u8>,
+    patches: Vec<Patch>,
+    cells: usize,
+    patch_total: usize,
+    /// Smallest and largest cell coordinates in use (x0, y0, x1, y1):
+    /// region visits never look beyond them.
+    bounds: Option<[i32; 4]>,
+    /// The cell of the previous point: consecutive returns often share one.
+    last: Option<(i32, i32, u32)>,
+    totals: InsertStats,
+}
+
+impl MlsMap {
+    /// Takes all the memory the map will ever use. Fails only on a
+    /// non-positive resolution or a negative gap, threshold or noise; zero
+    /// capacities give a map that drops (and counts) every point.
+    pub fn new(params: MlsParams) -> Result<MlsMap, ParamsError> {
+        params.validate()?;
+        let stride = params.max_patches_per_cell.min(MAX_PATCHES_PER_CELL);
+        let max_cells = params.max_cells.min(MAX_CELLS);
+        Ok(MlsMap {
+            inv_res: 1.0 / params.resolution_m,
+            rule: CellRule {
+                gap: params.gap_m,
+                vertical_threshold: params.vertical_threshold_m,
+                point_variance: params.range_noise_m * params.range_noise_m,
+            },
+            stride,
+            max_cells,
+            index: CellIndex::new(max_cells),
+            keys: resident_buffer(max_cells, (0, 0)),
+            lens: resident_buffer(max_cells, 0),
+            patches: resident_buffer(max_cells * stride, Patch::default()),
+            cells: 0,
+            patch_total: 0,
+            bounds: None,
+            last: None,
+            totals: InsertStats::default(),
+            params,
+        })
+    }
+
+    pub fn params(&self) -> &MlsParams {
+        &self.params
+    }
+
+    /// Inserts a scan: `points_sensor` in the sensor frame, moved by
+    /// `sensor_to_map`. Allocates nothing.
+    pub fn insert_scan(
+        &mut self,
+        sensor_to_map: &Isometry3<f64>,
+        points_sensor: &[[f32; 3]],
+    ) -> InsertStats {
+        let r = sensor_to_map.rotation.to_rotation_matrix();
+        let m = r.matrix();
+        let t = sensor_to_map.translation.vector;
+        let (r00, r01, r02) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
+        let (r10, r11, r12) = (m[(1, 0)], m[(1, 1)], m[(1, 2)]);
+        let (r20, r21, r22) = (m[(2, 0)], m[(2, 1)], m[(2, 2)]);
+        let mut s = InsertStats::default();
+        for p in points_sensor {
+            let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
+            let q = [
+                r00 * x + r01 * y + r02 * z + t.x,
+                r10 * x + r11 * y + r12 * z + t.y,
+                r20 * x + r21 * y + r22 * z + t.z,
+            ];
+            self.insert_one(q, &mut s);
+        }
+        self.add_totals(&s);
+        s
+    }
+
+    /// Inserts points already in the map frame. Allocates nothing.
+    pub fn insert_points(&mut self, points_map: &[[f64; 3]]) -> InsertStats {
+        let mut s = InsertStats::default();
+        for &q in points_map {
+            self.insert_one(q, &mut s);
+        }
+        self.add_totals(&s);
+        s
+    }
+
+    #[inline(always)]
+    fn insert_one(&mut self, q: [f64; 3], s: &mut InsertStats) {
+        s.points += 1;
+        // NaN fails every comparison: one test rejects NaN and infinities.
+        let (fx, fy) = (q[0] * self.inv_res, q[1] * self.inv_res);
+        if !(fx.abs() < MAX_CELL_COORD && fy.abs() < MAX_CELL_COORD && q[2].abs() <= MAX_HEIGHT_M) {
+            if q.iter().all(|v| v.is_finite()) {
+                s.out_of_range += 1;
+            } else {
+                s.non_finite += 1;
+            }
+            return;
+        }
+        let (ix, iy) = (floor_i32(fx), floor_i32(fy));
+        let cell = match self.last {
+            Some((lx, ly, c)) if lx == ix && ly == iy => c,
+            _ => match self.cell_or_new(ix, iy) {
+                Some(c) => {
+                    self.last = Some((ix, iy, c));
+                    c
+                }
+                None => {
+                    s.dropped_map_full += 1;
+                    return;
+                }
+            },
+        } as usize;
+        let base = cell * self.stride;
+        let mut len = self.lens[cell] as usize;
+        let slots = &mut self.patches[base..base + self.stride];
+        match patch::insert(slots, &mut len, q[2] as f32, &self.rule) {
+            CellUpdate::Updated { merged } => {
+                self.patch_total -= merged as usize;
+                s.inserted += 1;
+            }
+            CellUpdate::Added => {
+                self.patch_total += 1;
+                s.inserted += 1;
+            }
+            CellUpdate::Full => s.dropped_patch_limit += 1,
+        }
+        self.lens[cell] = len as u8;
+    }
+
+    /// The cell number of `(ix, iy)`, made if new and there is room.
+    #[inline(always)]
+    fn cell_or_new(&mut self, ix: i32, iy: i32) -> Option<u32> {
+        match self.index.probe(ix, iy) {
+            Probe::Found(c) => Some(c),
+            Probe::Vacant(at) => {
+                if self.cells >= self.max_cells {
+                    return None;
+                }
+                let c = self.cells;
+                self.keys[c] = (ix, iy);
+                self.lens[c] = 0;
+                self.index.fill(at, ix, iy, c as u32);
+                self.cells += 1;
+                self.grow_bounds(ix, iy);
+                Some(c as u32)
+            }
+        }
+    }
+
+    fn grow_bounds(&mut self, ix: i32, iy: i32) {
+        self.bounds = Some(match self.bounds {
+            None => [ix, iy, ix, iy],
+            Some([x0, y0, x1, y1]) => [x0.min(ix), y0.min(iy), x1.max(ix), y1.max(iy)],
+        });
+    }
+
+    fn add_totals(&mut self, s: &InsertStats) {
+        let t = &mut self.totals;
+        t.points += s.points;
+        t.inserted += s.inserted;
+        t.non_finite += s.non_finite;
+        t.out_of_range += s.out_of_range;
+        t.dropped_patch_limit += s.dropped_patch_limit;
+        t.dropped_map_full += s.dropped_map_full;
+    }
+
+    /// The cell containing the map point `(x, y)` (saturating far from the
+    /// origin; NaN gives cell 0).
+    pub fn cell_of(&self, x: f64, y: f64) -> (i32, i32) {
+        (floor_i32(x * self.inv_res), floor_i32(y * self.inv_res))
+    }
+
+    /// Centre of cell `(ix, iy)` in the map frame.
+    pub fn cell_center(&self, ix: i32, iy: i32) -> [f64; 2] {
+        let r = self.params.resolution_m;
+        [(ix as f64 + 0.5) * r, (iy as f64 + 0.5) * r]
+    }
+
+    /// The patches of cell `(ix, iy)`, lowest first (empty if unknown).
+    pub fn cell(&self, ix: i32, iy: i32) -> &[Patch] {
+        match self.index.get(ix, iy) {
+            Some(c) => self.patches_of(c as usize),
+            None => &[],
+        }
+    }
+
+    fn patches_of(&self, c: usize) -> &[Patch] {
+        let base = c * self.stride;
+        &self.patches[base..base + self.lens[c] as usize]
+    }
+
+    /// Calls `f(ix, iy, patches)` for every known cell whose centre's cell
+    /// lies between the cells of `min_xy` and `max_xy` (inclusive), row by
+    /// row: `iy` ascending, then `ix` ascending. Costs one lookup per cell
+    /// of the region, known or not.
+    pub fn for_each_in_region(
+        &self,
+        min_xy: [f64; 2],
+        max_xy: [f64; 2],
+        mut f: impl FnMut(i32, i32, &[Patch]),
+    ) {
+        if !min_xy.iter().chain(&max_xy).all(|v| v.is_finite()) {
+            return;
+        }
+        let Some([bx0, by0, bx1, by1]) = self.bounds else {
+            return;
+        };
+        let (x0, y0) = self.cell_of(min_xy[0], min_xy[1]);
+        let (x1, y1) = self.cell_of(max_xy[0], max_xy[1]);
+        let (x0, y0, x1, y1) = (x0.max(bx0), y0.max(by0), x1.min(bx1), y1.min(by1));
+        for iy in y0..=y1 {
+            for ix in x0..=x1 {
+                if let Some(c) = self.index.get(ix, iy) {
+                    f(ix, iy, self.patches_of(c as usize));
+                }
+            }
+        }
+    }
+
+    /// Calls `f(ix, iy, patches)` for every known cell in storage order
+    /// (the order cells were first seen, kept by eviction): deterministic.
+    pub fn for_each_cell(&self, mut f: impl FnMut(i32, i32, &[Patch])) {
+        for c in 0..self.cells {
+            let (ix, iy) = self.keys[c];
+            f(ix, iy, self.patches_of(c));
+        }
+    }
+
+    /// Evicts every cell whose centre is farther than `radius_m` from
+    /// `center_xy`, keeping the others in their order; returns how many
+    /// were evicted. Compacts the cell arrays and rebuilds the index in
+    /// place: allocates nothing. A non-finite centre or radius evicts
+    /// nothing.
+    pub fn keep_region(&mut self, center_xy: [f64; 2], radius_m: f64) -> usize {
+        if !(center_xy[0].is_finite() && center_xy[1].is_finite()) || radius_m.is_nan() {
+            return 0;
+        }
+        let r2 = radius_m * radius_m;
+        let keep_all = radius_m == f64::INFINITY;
+        let mut w = 0;
+        for c in 0..self.cells {
+            let (ix, iy) = self.keys[c];
+            let [cx, cy] = self.cell_center(ix, iy);
+            let (dx, dy) = (cx - center_xy[0], cy - center_xy[1]);
+            if keep_all || (radius_m >= 0.0 && dx * dx + dy * dy <= r2) {
+                if w != c {
+                    self.keys[w] = self.keys[c];
+                    self.lens[w] = self.lens[c];
+                    let s = self.stride;
+                    self.patches.copy_within(c * s..(c + 1) * s, w * s);
+                }
+                w += 1;
+            } else {
+                self.patch_total -= self.lens[c] as usize;
+            }
+        }
+        let evicted = self.cells - w;
+        self.cells = w;
+        self.index.clear();
+        self.bounds = None;
+        for c in 0..w {
+            let (ix, iy) = self.keys[c];
+            self.index.insert_new(ix, iy, c as u32);
+            self.grow_bounds(ix, iy);
+        }
+        self.last = None;
+        evicted
+    }
+
+    /// Empties the map and its totals (for a re-projection of every
+    /// keyframe after a pose-graph correction). Allocates nothing.
+    pub fn clear(&mut self) {
+        self.index.clear();
+        self.cells = 0;
+        self.patch_total = 0;
+        self.bounds = None;
+        self.last = None;
+        self.totals = InsertStats::default();
+    }
+
+    pub fn stats(&self) -> MlsStats {
+        let t = &self.totals;
+        MlsStats {
+            cells: self.cells,
+            max_cells: self.max_cells,
+            patches: self.patch_total,
+            inserted: t.inserted,
+            dropped_points: t.dropped_patch_limit + t.dropped_map_full,
+            dropped_patch_limit: t.dropped_patch_limit,
+            dropped_map_full: t.dropped_map_full,
+            non_finite: t.non_finite,
+            out_of_range: t.out_of_range,
+            full: self.cells >= self.max_cells,
+            memory_bytes: self.index.memory_bytes()
+                + self.keys.len() * std::mem::size_of::<(i32, i32)>()
+                + self.lens.len()
+                + self.patches.len() * std::mem::size_of::<Patch>(),
+        }
+    }
+}

@@ -1,0 +1,355 @@
+//! Multi-level surface map: two levels over the same cells, walls,
+//! a full table and eviction, bad points, the scan pose, determinism.
+
+mod common;
+
+use common::{Rng, TUBE};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+use speleo_mapping::mls::{MlsMap, MlsParams, PatchKind};
+use speleo_mapping::ParamsError;
+
+fn map(params: MlsParams) -> MlsMap {
+    MlsMap::new(params).expect("valid parameters")
+}
+
+/// A floor at z = 0 and an upper floor at z = 2.5 over x, y in [0, 4),
+/// and a wall at x = 4.05 from the floor to the upper floor, sampled every
+/// 2.5 cm with 1 cm height noise.
+fn two_level_scene() -> Vec<[f64; 3]> {
+    let mut rng = Rng(1);
+    let mut pts = Vec::new();
+    let step = 0.025;
+    for i in 0..160 {
+        for j in 0..160 {
+            let (x, y) = (i as f64 * step + 0.001, j as f64 * step + 0.001);
+            pts.push([x, y, 0.01 * rng.gauss()]);
+            pts.push([x, y, 2.5 + 0.01 * rng.gauss()]);
+        }
+    }
+    for j in 0..160 {
+        for k in 0..=100 {
+            pts.push([4.05, j as f64 * step + 0.001, k as f64 * step]);
+        }
+    }
+    pts
+}
+
+#[test]
+fn two_levels_stay_apart_in_the_same_cells() {
+    let mut m = map(MlsParams::default());
+    let s = m.insert_points(&two_level_scene());
+    assert_eq!(s.inserted, s.points);
+    let mut cells = 0;
+    m.for_each_in_region([0.0, 0.0], [3.99, 3.99], |ix, iy, patches| {
+        cells += 1;
+        assert_eq!(patches.len(), 2, "cell ({ix}, {iy}): {patches:?}");
+        let (floor, upper) = (patches[0], patches[1]);
+        assert_eq!(floor.kind, PatchKind::Horizontal);
+        assert_eq!(upper.kind, PatchKind::Horizontal);
+        assert_eq!((floor.count, upper.count), (16, 16));
+        // 16 points of 1 cm noise: the mean is within 4 sigma / 4.
+        assert!(floor.mean.abs() < 0.01, "{floor:?}");
+        assert!((upper.mean - 2.5).abs() < 0.01, "{upper:?}");
+        assert!(floor.max < upper.min);
+        let expected_var = 0.02f32 * 0.02 / 16.0;
+        assert!((floor.variance - expected_var).abs() < 1e-9);
+    });
+    assert_eq!(cells, 40 * 40);
+}
+
+#[test]
+fn a_wall_becomes_vertical_patches() {
+    let mut m = map(MlsParams::default());
+    m.insert_points(&two_level_scene());
+    let (ix, _) = m.cell_of(4.05, 0.0);
+    assert_eq!(ix, 40);
+    for iy in 0..40 {
+        let patches = m.cell(ix, iy);
+        assert_eq!(patches.len(), 1, "{patches:?}");
+        let p = patches[0];
+        assert_eq!(p.kind, PatchKind::Vertical);
+        assert!(p.min.abs() < 1e-6 && (p.max - 2.5).abs() < 1e-6, "{p:?}");
+    }
+    // A shallow slope (30 degrees over a cell: 6 cm) stays horizontal.
+    let mut m = map(MlsParams::default());
+    let slope: Vec<[f64; 3]> = (0..40)
+        .map(|k| {
+            let x = 10.0 + k as f64 * 0.0025;
+            [x, 0.05, (x - 10.0) * 0.577]
+        })
+        .collect();
+    m.insert_points(&slope);
+    let p = m.cell(100, 0);
+    assert_eq!(p.len(), 1);
+    assert_eq!(p[0].kind, PatchKind::Horizontal);
+}
+
+#[test]
+fn the_scan_pose_moves_the_points() {
+    let mut m = map(MlsParams::default());
+    // A 1 m square of floor 1 m below a sensor at (5, 0, 1), yawed 90 deg.
+    let scan: Vec<[f32; 3]> = (0..100)
+        .map(|k| {
+            [
+                (k % 10) as f32 * 0.1 + 0.05,
+                (k / 10) as f32 * 0.1 + 0.05,
+                -1.0,
+            ]
+        })
+        .collect();
+    let pose = Isometry3::from_parts(
+        Translation3::new(5.0, 0.0, 1.0),
+        UnitQuaternion::from_euler_angles(0.0, 0.0, std::f64::consts::FRAC_PI_2),
+    );
+    let s = m.insert_scan(&pose, &scan);
+    assert_eq!(s.inserted, 100);
+    assert_eq!(m.stats().cells, 100);
+    // Sensor x becomes map y, sensor y becomes map -x.
+    let p = m.cell(m.cell_of(5.0 - 0.05, 0.05).0, 0);
+    assert_eq!(p.len(), 1);
+    assert!(p[0].mean.abs() < 1e-6, "{:?}", p[0]);
+    assert!(m.cell(50, 0).is_empty());
+    assert_eq!(m.cell(49, 9).len(), 1);
+    assert_eq!(m.cell(40, 9).len(), 1);
+}
+
+#[test]
+fn a_full_map_reports_it_does_not_grow_and_keeps_a_region() {
+    let params = MlsParams {
+        max_cells: 50,
+        ..MlsParams::default()
+    };
+    let mut m = map(params);
+    let memory = m.stats().memory_bytes;
+    // 20 x 20 cells, row by row: the first 50 cells seen fill the table.
+    let pts: Vec<[f64; 3]> = (0..400)
+        .map(|k| {
+            [
+                (k % 20) as f64 * 0.1 + 0.05,
+                (k / 20) as f64 * 0.1 + 0.05,
+                0.0,
+            ]
+        })
+        .collect();
+    let s = m.insert_points(&pts);
+    assert_eq!((s.inserted, s.dropped_map_full), (50, 350));
+    let st = m.stats();
+    assert!(st.full);
+    assert_eq!((st.cells, st.patches, st.dropped_points), (50, 50, 350));
+    assert_eq!(st.memory_bytes, memory);
+    // Known cells still take points.
+    assert_eq!(m.insert_points(&pts[..50]).inserted, 50);
+    assert_eq!(m.cell(0, 0)[0].count, 2);
+
+    // Keep the cells within 0.35 m of (0.5, 0.15).
+    let (center, radius) = ([0.5, 0.15], 0.35);
+    let mut expected = Vec::new();
+    m.for_each_cell(|ix, iy, _| {
+        let [cx, cy] = m.cell_center(ix, iy);
+        if (cx - center[0]).hypot(cy - center[1]) <= radius {
+            expected.push((ix, iy));
+        }
+    });
+    assert!(!expected.is_empty() && expected.len() < 50);
+    let evicted = m.keep_region(center, radius);
+    assert_eq!(evicted, 50 - expected.len());
+    let mut kept = Vec::new();
+    m.for_each_cell(|ix, iy, p| {
+        assert_eq!(p.len(), 1);
+        kept.push((ix, iy));
+    });
+    assert_eq!(kept, expected);
+    let st = m.stats();
+    assert_eq!(
+        (st.cells, st.patches, st.full),
+        (expected.len(), expected.len(), false)
+    );
+    assert_eq!(st.memory_bytes, memory);
+    for ix in 0..20 {
+        for iy in 0..20 {
+            assert_eq!(!m.cell(ix, iy).is_empty(), expected.contains(&(ix, iy)));
+        }
+    }
+    // The freed room takes new cells again, up to the capacity.
+    let s = m.insert_points(&pts);
+    assert_eq!(m.stats().cells, 50);
+    assert_eq!(s.dropped_map_full, 400 - 50);
+    m.clear();
+    assert_eq!(m.stats().cells, 0);
+    assert!(m.cell(0, 0).is_empty());
+    assert_eq!(m.stats().memory_bytes, memory);
+}
+
+#[test]
+fn a_cell_with_the_most_patches_drops_new_levels() {
+    let mut m = map(MlsParams {
+        max_patches_per_cell: 2,
+        ..MlsParams::default()
+    });
+    let s = m.insert_points(&[[0.05, 0.05, 0.0], [0.05, 0.05, 1.0], [0.05, 0.05, 2.0]]);
+    assert_eq!((s.inserted, s.dropped_patch_limit), (2, 1));
+    assert_eq!(m.stats().dropped_points, 1);
+    assert_eq!(m.cell(0, 0).len(), 2);
+}
+
+#[test]
+fn bad_points_are_counted_not_inserted() {
+    let mut m = map(MlsParams::default());
+    let pts = [
+        [f64::NAN, 0.0, 0.0],
+        [0.0, f64::INFINITY, 0.0],
+        [0.0, 0.0, f64::NEG_INFINITY],
+        [1e12, 0.0, 0.0],
+        [0.0, 0.0, 1e9],
+        [0.05, 0.05, 0.0],
+    ];
+    let s = m.insert_points(&pts);
+    assert_eq!((s.non_finite, s.out_of_range, s.inserted), (3, 2, 1));
+    let st = m.stats();
+    assert_eq!((st.cells, st.non_finite, st.out_of_range), (1, 3, 2));
+    let scan = [[f32::NAN, 0.0, 0.0], [1.0, 1.0, 1.0]];
+    let s = m.insert_scan(&Isometry3::identity(), &scan);
+    assert_eq!((s.non_finite, s.inserted), (1, 1));
+    // A non-finite pose poisons nothing: every point is refused.
+    let bad_pose = Isometry3::translation(f64::NAN, 0.0, 0.0);
+    let s = m.insert_scan(&bad_pose, &scan);
+    assert_eq!((s.non_finite, s.inserted), (2, 0));
+    assert_eq!(m.insert_points(&[]), Default::default());
+    assert_eq!(m.stats().cells, 2);
+    // Zero capacities drop everything, counted.
+    let mut z = map(MlsParams {
+        max_cells: 0,
+        ..MlsParams::default()
+    });
+    assert_eq!(z.insert_points(&pts).dropped_map_full, 1);
+    assert!(z.stats().full);
+    let mut z = map(MlsParams {
+        max_patches_per_cell: 0,
+        ..MlsParams::default()
+    });
+    assert_eq!(z.insert_points(&pts).dropped_patch_limit, 1);
+    assert!(matches!(
+        MlsMap::new(MlsParams {
+            resolution_m: 0.0,
+            ..MlsParams::default()
+        }),
+        Err(ParamsError::NotPositive("resolution_m"))
+    ));
+    // Regions: bad or inverted bounds visit nothing.
+    let mut n = 0;
+    m.for_each_in_region([f64::NAN, 0.0], [1.0, 1.0], |_, _, _| n += 1);
+    // Huge bounds cost no more than the cells in use.
+    m.for_each_in_region([-1e300, -1e300], [1e300, 1e300], |_, _, _| n += 10);
+    assert_eq!(n, 20);
+    n = 0;
+    m.for_each_in_region([1.0, 1.0], [0.0, 0.0], |_, _, _| n += 1);
+    assert_eq!(n, 0);
+    assert_eq!(m.keep_region([f64::NAN, 0.0], 1.0), 0);
+    assert_eq!(m.stats().cells, 2);
+}
+
+#[test]
+fn regions_are_visited_row_by_row() {
+    let mut m = map(MlsParams::default());
+    let pts: Vec<[f64; 3]> = [(3, 1), (0, 0), (2, 0), (1, 1), (-1, 0)]
+        .iter()
+        .map(|&(ix, iy)| [ix as f64 * 0.1 + 0.05, iy as f64 * 0.1 + 0.05, 0.0])
+        .collect();
+    m.insert_points(&pts);
+    let mut seen = Vec::new();
+    m.for_each_in_region([0.0, 0.0], [0.35, 0.15], |ix, iy, _| seen.push((ix, iy)));
+    assert_eq!(seen, vec![(0, 0), (2, 0), (1, 1), (3, 1)]);
+}
+
+/// Every field of every patch, as bits, in storage order.
+fn fingerprint(m: &MlsMap) -> Vec<(i32, i32, Vec<[u32; 6]>)> {
+    let mut out = Vec::new();
+    m.for_each_cell(|ix, iy, p| {
+        let bits = p
+            .iter()
+            .map(|q| {
+                [
+                    q.mean.to_bits(),
+                    q.variance.to_bits(),
+                    q.min.to_bits(),
+                    q.max.to_bits(),
+                    q.count,
+                    q.kind as u32,
+                ]
+            })
+            .collect();
+        out.push((ix, iy, bits));
+    });
+    out
+}
+
+#[test]
+fn the_same_scans_give_bit_identical_maps() {
+    let mut rng = Rng(3);
+    let origins = common::tube_origins(3);
+    let scans: Vec<_> = origins
+        .iter()
+        .map(|o| common::tube_scan(*o, 0.02, &mut rng))
+        .collect();
+    let build = || {
+        let mut m = map(MlsParams::default());
+        for (o, s) in origins.iter().zip(&scans) {
+            let pose = Isometry3::from_parts(
+                Translation3::new(o[0], o[1], o[2]),
+                UnitQuaternion::from_euler_angles(0.01, -0.02, 0.3),
+            );
+            m.insert_scan(&pose, s);
+        }
+        m
+    };
+    let (a, b) = (build(), build());
+    assert_eq!(a.stats(), b.stats());
+    assert!(a.stats().cells > 1000);
+    assert_eq!(fingerprint(&a), fingerprint(&b));
+    // And after eviction and clearing, the same again.
+    let (mut a, mut b) = (a, b);
+    a.keep_region([1.0, 0.0], 3.0);
+    b.keep_region([1.0, 0.0], 3.0);
+    assert_eq!(fingerprint(&a), fingerprint(&b));
+    let _ = TUBE;
+}
+
+#[test]
+fn the_tube_has_floor_and_vault_in_the_same_cells_and_vertical_walls() {
+    // 20 revolutions 1 m apart along the tube. The upper lasers (up to
+    // +10.67 deg) reach the vault (z = +2 on the axis) about 14 m ahead,
+    // where the floor (z = -1.2) is seen by the lower ones.
+    let mut rng = Rng(5);
+    let mut m = map(MlsParams::default());
+    for o in common::tube_origins(20) {
+        let scan = common::tube_scan(o, 0.0, &mut rng);
+        m.insert_scan(&Isometry3::translation(o[0], o[1], o[2]), &scan);
+    }
+    let (mut two_levels, mut near_axis) = (0, 0);
+    m.for_each_in_region([2.0, -0.3], [18.0, 0.29], |ix, iy, p| {
+        near_axis += 1;
+        for q in p {
+            let floor = (q.mean - TUBE.floor_z as f32).abs() < 1e-3;
+            let vault = q.mean > 1.97 && q.mean < 2.0;
+            assert!(floor || vault, "({ix}, {iy}): {p:?}");
+            assert_eq!(q.kind, PatchKind::Horizontal);
+        }
+        if p.len() == 2 {
+            two_levels += 1;
+            assert!(p[0].mean < 0.0 && p[1].mean > 1.9, "{p:?}");
+        }
+    });
+    assert!(two_levels >= 50, "{two_levels} of {near_axis}");
+    // The side walls between z = -0.6 and 0.6 (|y| in [1.9, 2)) are steep.
+    let (mut vertical, mut wall) = (0, 0);
+    for (lo, hi) in [([2.0, 1.9], [18.0, 1.99]), ([2.0, -2.0], [18.0, -1.91])] {
+        m.for_each_in_region(lo, hi, |_, _, p| {
+            wall += 1;
+            vertical += p.iter().any(|q| q.kind == PatchKind::Vertical) as u32;
+        });
+    }
+    assert!(
+        wall > 100 && vertical * 10 >= wall * 8,
+        "{vertical} of {wall}"
+    );
+}
