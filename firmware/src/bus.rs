@@ -199,6 +199,9 @@ pub struct Bus {
     pub odom_history: PoseHistory,
     /// What the odometry counted (slip, glitches, bad IMU samples).
     pub odom_counters: OdometryCounters,
+    /// The keyframes' clouds and poses for the maps: written by slam, read
+    /// by maps. Empty until the mission sizes it.
+    pub keyframe_clouds: crate::keyframe_clouds::KeyframeClouds,
     pub command: Latest<WheelCommand>,
     /// Frames to put on the CAN bus at the start of the next frame.
     pub can_tx: Fifo<CanFrame, 32>,
@@ -230,6 +233,7 @@ impl Bus {
                 ODOM_HISTORY_EXTRAPOLATION_NS,
             ),
             odom_counters: OdometryCounters::default(),
+            keyframe_clouds: crate::keyframe_clouds::KeyframeClouds::new(0, 0),
             command: Latest::new(),
             can_tx: Fifo::new(),
             imu_tx: Fifo::new(),

@@ -52,6 +52,44 @@ pub enum Command {
     /// Register two point clouds (PLY) with GICP; prints the 4x4 transform
     /// (target <- source), iterations, fitness and time.
     Register(RegisterArgs),
+    /// Mesh LiDAR scans through a TSDF (marching cubes): a folder of PLY
+    /// scans with KITTI poses, or the keyframes of a recording run through
+    /// the drivers and SLAM again. Prints the time, blocks and triangles.
+    Mesh(MeshArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct MeshArgs {
+    /// Folder of PLY scans (sensor frame), taken in name order...
+    #[arg(
+        long,
+        value_name = "DIR",
+        requires = "poses",
+        required_unless_present = "record"
+    )]
+    pub scans: Option<PathBuf>,
+    /// ...with one pose per line, KITTI format: 12 numbers, a row-major
+    /// 3x4 sensor -> world.
+    #[arg(long, value_name = "POSES.txt")]
+    pub poses: Option<PathBuf>,
+    /// Or a recording: replayed through the drivers and SLAM, its
+    /// keyframes meshed at their final poses.
+    #[arg(long, value_name = "LOG.mcap", conflicts_with_all = ["scans", "poses"])]
+    pub record: Option<PathBuf>,
+    /// Voxel size, m.
+    #[arg(long, default_value_t = 0.05)]
+    pub voxel: f64,
+    /// Truncation distance, in voxels.
+    #[arg(long, default_value_t = 3.0)]
+    pub trunc: f64,
+    /// Voxel blocks (8^3 voxels, 4 KiB each) the TSDF may use.
+    #[arg(long, default_value_t = 1 << 16)]
+    pub max_blocks: usize,
+    #[arg(long, value_name = "MESH.ply")]
+    pub out: PathBuf,
+    /// Write the figures as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -169,7 +207,7 @@ pub struct DecodeCanArgs {
     pub file: PathBuf,
 }
 
-#[derive(Args, Debug, Clone)]
+#[derive(Args, Debug, Clone, Default)]
 pub struct Outputs {
     /// Record every raw input and every output to this MCAP file.
     #[arg(long, value_name = "OUT.mcap")]
@@ -177,11 +215,19 @@ pub struct Outputs {
     /// Write the run's figures (frames, output hash, per-task times) as JSON.
     #[arg(long, value_name = "OUT.json")]
     pub report: Option<PathBuf>,
+    /// At the end, mesh every keyframe at its final pose (TSDF, marching
+    /// cubes) and write it as binary PLY.
+    #[arg(long, value_name = "OUT.ply")]
+    pub mesh: Option<PathBuf>,
+    /// At the end, write every keyframe's cloud (sensor frame) as
+    /// DIR/NNNNNN.ply with DIR/poses.txt (KITTI), for `speleo mesh --scans`.
+    #[arg(long, value_name = "DIR")]
+    pub export_scans: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
 pub struct SimArgs {
-    /// World to simulate (available: flat).
+    /// World to simulate: lava-tube, garage, flat, or a PLY/OBJ/STL mesh.
     #[arg(long, value_name = "NAME|MESH")]
     pub world: Option<String>,
     /// Seed of every random source of the simulation [default: from config, 1].
@@ -251,6 +297,7 @@ pub fn main() -> ExitCode {
         Command::World(WorldCommand::Export(a)) => modes::world_export(a),
         Command::G2o(a) => modes::g2o(a),
         Command::Register(a) => modes::register(a),
+        Command::Mesh(a) => modes::mesh(a, progress),
     };
     match result {
         Ok(code) => code,

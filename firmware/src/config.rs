@@ -7,6 +7,9 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+mod maps;
+pub use maps::MapsConfig;
+
 #[derive(Debug, Error)]
 pub enum ConfigError {
     #[error("cannot read {path}: {source}")]
@@ -38,6 +41,7 @@ pub struct Config {
     pub control: ControlConfig,
     pub lidar: LidarConfig,
     pub slam: SlamConfig,
+    pub maps: MapsConfig,
     pub health: HealthConfig,
     pub record: RecordConfig,
     pub devices: DevicesConfig,
@@ -662,6 +666,7 @@ impl Config {
                 why: "mount values must be finite numbers".into(),
             });
         }
+        self.maps.validate()?;
         let sl = &self.slam;
         range(
             "slam.keyframe_capacity",

@@ -5,6 +5,8 @@
 pub mod bus;
 pub mod cli;
 pub mod config;
+pub mod keyframe_clouds;
+pub mod maps_output;
 pub mod mission;
 pub mod modes;
 pub mod record;

@@ -24,8 +24,8 @@ use crate::record::{RecorderTap, Topic};
 use crate::slam_figures::{SlamFigures, TruthTrack};
 use crate::tasks::recorder::mode_name;
 use crate::tasks::{
-    control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, odometry, recorder,
-    slam,
+    control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, maps, odometry,
+    recorder, slam,
 };
 
 /// How long the mission runs.
@@ -83,12 +83,29 @@ pub struct MissionResult {
     pub recorder: TapCounters,
     pub counters: crate::bus::Counters,
     pub slam: Option<SlamFigures>,
+    /// The maps at the end of the run, when kept.
+    pub maps: Option<MapsResult>,
+    /// The report's `maps` section, once the run's requests are done.
+    pub maps_figures: Option<crate::maps_output::MapsFigures>,
+}
+
+/// The maps at the end of a run: the MLS map's figures, and the keyframe
+/// clouds with their final poses, for a mesh or an export.
+pub struct MapsResult {
+    pub mls: speleo_mapping::mls::MlsStats,
+    pub memory_bytes: usize,
+    pub counters: maps::MapsCounters,
+    pub keyframes: crate::keyframe_clouds::KeyframeClouds,
+    /// The LiDAR mount, base <- sensor (the clouds are in the base frame).
+    pub mount: speleo_slam::lie::Pose,
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum MissionError {
     #[error("{0}")]
     Executive(#[from] ExecutiveError),
+    #[error("maps: {0}")]
+    Maps(#[from] speleo_mapping::ParamsError),
     #[error("lidar.calibration: {0}")]
     Calibration(#[from] speleo_hal::hdl32e::calib::CalibError),
 }
@@ -179,6 +196,23 @@ pub fn run<C: FrameClock>(
     if let Some(f) = &cfg.sim.false_loop_closure {
         t_slam.inject_false_loop(f.clone());
     }
+    let maps_on = cfg.maps.enabled && cfg.slam.enabled;
+    let kf_capacity = cfg.slam.keyframe_capacity;
+    let mut t_maps = if maps_on {
+        bus.keyframe_clouds =
+            crate::keyframe_clouds::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
+        t_slam = t_slam.with_maps(cfg.maps.range_m, cfg.maps.keyframe_points);
+        maps::MapsTask::new(&cfg.maps, kf_capacity)?
+    } else {
+        // Idle: nothing ever reaches the keyframe clouds.
+        maps::MapsTask::new(
+            &crate::config::MapsConfig {
+                mls_max_cells: 1,
+                ..cfg.maps.clone()
+            },
+            0,
+        )?
+    };
     let mut t_control = control::ControlTask::new(
         follower(cfg),
         SkidSteer {
@@ -221,6 +255,7 @@ pub fn run<C: FrameClock>(
     let _ = tasks.push(&mut t_drive);
     let _ = tasks.push(&mut t_odo);
     let _ = tasks.push(&mut t_slam);
+    let _ = tasks.push(&mut t_maps);
     let _ = tasks.push(&mut t_control);
     let _ = tasks.push(&mut t_out);
     let _ = tasks.push(&mut t_health);
@@ -358,6 +393,16 @@ pub fn run<C: FrameClock>(
             m.truth.as_ref().map(|_| cfg.sim.imu_misalignment_deg),
         )
     });
+    let maps = maps_on.then(|| MapsResult {
+        mls: t_maps.stats(),
+        memory_bytes: t_maps.memory_bytes() + bus.keyframe_clouds.memory_bytes(),
+        counters: t_maps.counters,
+        keyframes: std::mem::replace(
+            &mut bus.keyframe_clouds,
+            crate::keyframe_clouds::KeyframeClouds::new(0, 0),
+        ),
+        mount: mount_pose(cfg),
+    });
     let t = tap.borrow();
     Ok(MissionResult {
         frames,
@@ -375,6 +420,8 @@ pub fn run<C: FrameClock>(
         safe_mode_cause,
         suppressed_events,
         slam,
+        maps,
+        maps_figures: None,
         recorder: t.counters,
         counters: bus.counters,
     })

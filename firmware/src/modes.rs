@@ -17,8 +17,8 @@ use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
 use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
 
 use crate::cli::{
-    DecodeCommand, G2oArgs, Outputs, Pcap2mcapArgs, RegisterArgs, ReplayArgs, RunArgs, SimArgs,
-    WorldExportArgs,
+    DecodeCommand, G2oArgs, MeshArgs, Outputs, Pcap2mcapArgs, RegisterArgs, ReplayArgs, RunArgs,
+    SimArgs, WorldExportArgs,
 };
 use crate::config::Config;
 use crate::mission::{self, Length, MissionInputs, MissionResult};
@@ -179,6 +179,40 @@ fn print_summary(r: &MissionResult) {
         "{} frames, {:.1} s simulated in {:.2} s ({speed:.0}x real time), output hash {:016x}, {} allocations after start-up",
         r.frames, r.sim_time_s, r.wall_time_s, r.output_hash, r.allocations_after_init
     );
+    if let Some(m) = &r.maps_figures {
+        eprintln!(
+            "maps: {} keyframes, MLS {} cells / {} patches{}",
+            m.keyframes_mapped,
+            m.mls_cells,
+            m.mls_patches,
+            if m.mesh_triangles > 0 {
+                format!(
+                    ", mesh {} triangles from {} TSDF blocks",
+                    m.mesh_triangles, m.tsdf_blocks
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
+}
+
+/// The maps' end-of-run requests (mesh, scans, the report's figures).
+fn finish_maps(cfg: &Config, out: &Outputs, r: &mut MissionResult) -> Result<(), Error> {
+    let Some(maps) = &r.maps else {
+        return Ok(());
+    };
+    let req = crate::maps_output::MapsRequests {
+        figures: out.report.is_some(),
+        mesh: out.mesh.as_deref(),
+        export_scans: out.export_scans.as_deref(),
+    };
+    r.maps_figures = Some(crate::maps_output::finish(
+        maps,
+        cfg.maps.tsdf_params(),
+        &req,
+    )?);
+    Ok(())
 }
 
 fn write_report(
@@ -224,7 +258,7 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     meta.insert("seed".into(), cfg.sim.seed.to_string());
     meta.insert("world".into(), cfg.sim.world.clone());
     let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, None, true)?;
-    let result = session.drive(
+    let mut result = session.drive(
         &cfg,
         Length::Frames(frames_for(&cfg, cfg.sim.duration_s)),
         virtual_enforcement(&cfg),
@@ -234,6 +268,7 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         VirtualClock::new(cfg.executive.minor_frame_us),
         progress,
     )?;
+    finish_maps(&cfg, &a.out, &mut result)?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
     if let Some(path) = &a.trajectory {
         let rows = result.slam.as_ref().map_or(&[][..], |s| &s.trajectory);
@@ -343,7 +378,7 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
     });
     let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, comparer, true)?;
     let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
-    let result = session.drive(
+    let mut result = session.drive(
         &cfg,
         Length::Frames(last + 1),
         virtual_enforcement(&cfg),
@@ -358,6 +393,7 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
         let c = t.comparer();
         (c.and_then(|c| c.describe()), c.map_or(0, |c| c.compared))
     };
+    finish_maps(&cfg, &a.out, &mut result)?;
     write_report(
         a.out.report.as_deref(),
         "replay",
@@ -395,6 +431,98 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
     }
 }
 
+/// `speleo mesh`: from PLY scans with KITTI poses, or from a recording's
+/// keyframes (the recording is run through the drivers and SLAM again).
+pub fn mesh(a: MeshArgs, progress: bool) -> Result<ExitCode, Error> {
+    let params = speleo_mapping::tsdf::TsdfParams {
+        voxel_size_m: a.voxel,
+        truncation_voxels: a.trunc,
+        max_blocks: a.max_blocks,
+        ..speleo_mapping::tsdf::TsdfParams::default()
+    };
+    let report = match (&a.scans, &a.poses, &a.record) {
+        (Some(dir), Some(poses), None) => {
+            crate::tools::mesh::from_scans(dir, poses, params, &a.out)?
+        }
+        (None, None, Some(log)) => mesh_recording(log, params, &a.out, progress)?,
+        _ => return Err("give --scans DIR --poses POSES.txt, or --record LOG.mcap".into()),
+    };
+    println!(
+        "{} scans, {} points: {} blocks, {} vertices, {} triangles; integrate {:.3} s, mesh {:.3} s, total {:.3} s{}",
+        report.scans,
+        report.points,
+        report.tsdf_blocks,
+        report.vertices,
+        report.triangles,
+        report.integrate_s,
+        report.mesh_s,
+        report.total_s,
+        if report.tsdf_full { " (the TSDF filled up: raise --max-blocks)" } else { "" }
+    );
+    if let Some(p) = &a.report {
+        report::write_json(p, &report)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Run a recording through the drivers and SLAM (as `replay` does, without
+/// comparing) and mesh its keyframes.
+fn mesh_recording(
+    log: &Path,
+    params: speleo_mapping::tsdf::TsdfParams,
+    out: &Path,
+    progress: bool,
+) -> Result<crate::tools::mesh::MeshReport, Error> {
+    let rec = read::load(log)?;
+    let cfg_text = rec
+        .run
+        .get("config")
+        .ok_or_else(|| format!("{}: the recording holds no configuration", log.display()))?;
+    let mut cfg = Config::from_toml(cfg_text)
+        .map_err(|e| format!("{}: recorded configuration: {e}", log.display()))?;
+    cfg.maps.enabled = true;
+    let Some(last) = rec.last_complete_frame() else {
+        return Err(format!("{}: no complete frame to replay", log.display()).into());
+    };
+    let epoch_ns = rec.epoch_ns();
+    let meta = run_metadata(&cfg, "mesh", epoch_ns);
+    let outputs = Outputs::default();
+    let mut session = Session::open(&outputs, &cfg, meta, epoch_ns, None, true)?;
+    let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
+    let result = session.drive(
+        &cfg,
+        Length::Frames(last + 1),
+        virtual_enforcement(&cfg),
+        None,
+        &AtomicBool::new(false),
+        &mut hw,
+        VirtualClock::new(cfg.executive.minor_frame_us),
+        progress,
+    )?;
+    let Some(maps) = &result.maps else {
+        return Err(format!(
+            "{}: SLAM is off in the recorded configuration",
+            log.display()
+        )
+        .into());
+    };
+    if maps.keyframes.ready() == 0 {
+        return Err(format!("{}: SLAM made no keyframe (no LiDAR?)", log.display()).into());
+    }
+    let points: u64 = (0..maps.keyframes.ready())
+        .map(|k| maps.keyframes.cloud(k).len() as u64)
+        .sum();
+    let m = crate::maps_output::mesh_keyframes(params.clone(), maps)?;
+    crate::maps_output::write_mesh(out, &m.mesh)?;
+    Ok(crate::tools::mesh::MeshReport::new(
+        log.display().to_string(),
+        maps.keyframes.ready(),
+        points,
+        &params,
+        &m,
+    ))
+}
+
 pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     let cfg = Config::load(&a.config)?;
     schedule_table::build(&cfg)?;
@@ -422,7 +550,7 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
         Some(d) => Length::Frames(frames_for(&cfg, d)),
         None => Length::UntilStopped,
     };
-    let result = session.drive(
+    let mut result = session.drive(
         &cfg,
         length,
         Enforcement::Enforce,
@@ -432,6 +560,7 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
         MonotonicClock::new(cfg.executive.minor_frame_us),
         progress,
     )?;
+    finish_maps(&cfg, &a.out, &mut result)?;
     write_report(a.out.report.as_deref(), "run", &result, None)?;
     print_summary(&result);
     Ok(ExitCode::SUCCESS)

@@ -21,6 +21,8 @@ pub struct Report<'a> {
     pub replay: Option<ReplayReport>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub slam: Option<&'a crate::slam_figures::SlamFigures>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub maps: Option<&'a crate::maps_output::MapsFigures>,
 }
 
 #[derive(Serialize)]
@@ -100,6 +102,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         }),
         replay,
         slam: r.slam.as_ref(),
+        maps: r.maps_figures.as_ref(),
     }
 }
 

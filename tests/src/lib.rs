@@ -42,6 +42,7 @@ pub fn sim_with_trajectory(
             out: Outputs {
                 record: record.map(Path::to_path_buf),
                 report: report.map(Path::to_path_buf),
+                ..Outputs::default()
             },
         },
         false,
@@ -55,8 +56,8 @@ pub fn replay(log: &Path, report: Option<&Path>) -> ExitCode {
         ReplayArgs {
             log: log.to_path_buf(),
             out: Outputs {
-                record: None,
                 report: report.map(Path::to_path_buf),
+                ..Outputs::default()
             },
         },
         false,

@@ -61,9 +61,15 @@ fn mls_insertion_eviction_and_clearing_allocate_nothing() {
         .iter()
         .map(|o| common::tube_scan(*o, 0.02, &mut rng))
         .collect();
+    // Bad points among them: every mark of the insertion pipeline.
     let map_points: Vec<[f64; 3]> = scans[0]
         .iter()
-        .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64 + 5.0])
+        .enumerate()
+        .map(|(k, p)| match k % 1000 {
+            1 => [f64::NAN, 0.0, 0.0],
+            2 => [1e12, 0.0, 0.0],
+            _ => [p[0] as f64, p[1] as f64, p[2] as f64 + 5.0],
+        })
         .collect();
     // Small enough to fill up: the full path is exercised too.
     let mut m = MlsMap::new(MlsParams {
@@ -77,16 +83,17 @@ fn mls_insertion_eviction_and_clearing_allocate_nothing() {
             let pose = Isometry3::translation(o[0], o[1], o[2]);
             dropped += m.insert_scan(&pose, s).dropped_map_full;
         }
-        m.insert_points(&map_points);
+        let bad = m.insert_points(&map_points);
         m.keep_region([1.0, 0.0], 3.0);
         m.insert_scan(&Isometry3::identity(), &scans[1]);
         let st = m.stats();
         m.clear();
         m.insert_scan(&Isometry3::identity(), &scans[2]);
-        (st, dropped)
+        (st, dropped, bad)
     });
     assert_eq!(n, 0, "allocations in the MLS map");
     assert!(stats.1 > 0, "the map never filled up");
+    assert!(stats.2.non_finite > 0 && stats.2.out_of_range > 0);
     assert!(stats.0.cells > 1000);
 }
 

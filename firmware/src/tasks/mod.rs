@@ -8,6 +8,7 @@ pub mod health;
 pub mod imu_driver;
 pub mod io;
 pub mod lidar_driver;
+pub mod maps;
 pub mod odometry;
 pub mod recorder;
 pub mod slam;

@@ -34,10 +34,22 @@ pub struct SlamTask {
     /// times, copied as they came...
     raw: Vec<[f32; 3]>,
     times: Vec<f32>,
+    /// Range of each staged point from the sensor.
+    ranges: Vec<f32>,
     /// ...and, a part per step, in the base frame at the first firing.
     points: Vec<[f64; 3]>,
     /// When and where the staged revolution began.
     staged: Option<(u64, Pose)>,
+    /// Mapping: returns within this range go to the keyframe clouds on the
+    /// bus (`None`: no maps), thinned to this many points...
+    map_range_m: Option<f32>,
+    map_points: usize,
+    /// ...from this many in range in the staged revolution.
+    staged_in_map_range: usize,
+    /// Points of the staged revolution seen so far within the map range.
+    map_seen: usize,
+    /// The graph changed since the keyframe poses were last published.
+    poses_stale: bool,
     /// Revolutions that could not be placed in the odometry history.
     pub scans_without_odometry: u64,
     pub points_not_deskewed: u64,
@@ -48,6 +60,12 @@ pub struct SlamTask {
 impl SlamTask {
     pub fn new(p: SlamParams, enabled: bool, mount: Pose, max_cloud_points: usize) -> Self {
         SlamTask {
+            ranges: Vec::with_capacity(max_cloud_points),
+            map_range_m: None,
+            map_points: 0,
+            staged_in_map_range: 0,
+            map_seen: 0,
+            poses_stale: false,
             points_per_step: p.points_per_step.max(1),
             slam: GraphSlam::new(p),
             enabled,
@@ -61,6 +79,15 @@ impl SlamTask {
             points_not_deskewed: 0,
             false_loop: None,
         }
+    }
+
+    /// Also stage each keyframe's returns within `range_m` (at most
+    /// `points`, thinned evenly) into the bus's keyframe clouds, and
+    /// publish the keyframe poses after every optimisation, for the maps.
+    pub fn with_maps(mut self, range_m: f64, points: usize) -> Self {
+        self.map_range_m = Some(range_m as f32);
+        self.map_points = points;
+        self
     }
 
     /// Inject this wrong loop closure once both its keyframes exist.
@@ -103,7 +130,7 @@ impl SlamTask {
 
     /// Stage the newest revolution when it should become a keyframe: only
     /// a copy here, the work is spread over the steps.
-    fn take_cloud(&mut self, bus: &Bus) {
+    fn take_cloud(&mut self, bus: &mut Bus) {
         let Some(c) = bus.cloud.newer_than(self.cloud_seen) else {
             return;
         };
@@ -125,21 +152,35 @@ impl SlamTask {
         }
         self.raw.clear();
         self.times.clear();
+        self.ranges.clear();
         self.points.clear();
+        let slam_range = self.slam.params().max_range_m as f32;
+        let range = self.map_range_m.map_or(slam_range, |m| m.max(slam_range));
+        self.staged_in_map_range = 0;
+        self.map_seen = 0;
         for p in &cloud.points {
-            let far = p.distance as f64 > self.slam.params().max_range_m;
-            if p.distance < MIN_RANGE_M || far || self.raw.len() == self.raw.capacity() {
+            if p.distance < MIN_RANGE_M
+                || p.distance > range
+                || self.raw.len() == self.raw.capacity()
+            {
                 continue;
+            }
+            if self.map_range_m.is_some_and(|m| p.distance <= m) {
+                self.staged_in_map_range += 1;
             }
             self.raw.push([p.x, p.y, p.z]);
             self.times.push(p.time);
+            self.ranges.push(p.distance);
+        }
+        if self.map_range_m.is_some() {
+            bus.keyframe_clouds.begin();
         }
         self.staged = Some((t0, odom0));
     }
 
     /// Move the next part of the staged revolution into the base frame and
     /// deskew it; when all of it is done, offer it to SLAM as a keyframe.
-    fn deskew_part(&mut self, bus: &Bus) {
+    fn deskew_part(&mut self, bus: &mut Bus) {
         let Some((t0, odom0)) = self.staged else {
             return;
         };
@@ -169,6 +210,21 @@ impl SlamTask {
                     })
             },
         ) as u64;
+        if let Some(m) = self.map_range_m {
+            // Even thinning: the j-th point in range is kept when it moves
+            // floor(j * kept / in_range) on.
+            let (n, keep) = (self.staged_in_map_range, self.map_points);
+            for (p, &r) in self.points[from..to].iter().zip(&self.ranges[from..to]) {
+                if r > m {
+                    continue;
+                }
+                let j = self.map_seen;
+                self.map_seen += 1;
+                if n <= keep || (j + 1) * keep / n > j * keep / n {
+                    bus.keyframe_clouds.push(*p);
+                }
+            }
+        }
         if to < self.raw.len() {
             return;
         }
@@ -178,8 +234,17 @@ impl SlamTask {
         // rocks by degrees within that time; the odometry's attitude is the
         // MTi's roll and pitch carried to any instant by the gyro.
         let up = odom0.r.transpose() * Vector3::z();
-        self.slam
-            .offer_scan(t0, odom0, up, self.points.iter().copied());
+        let slam_range = self.slam.params().max_range_m as f32;
+        let (points, ranges) = (&self.points, &self.ranges);
+        let scan = points
+            .iter()
+            .zip(ranges)
+            .filter(move |(_, &r)| r <= slam_range)
+            .map(|(p, _)| *p);
+        let taken = self.slam.offer_scan(t0, odom0, up, scan);
+        if taken && self.map_range_m.is_some() {
+            bus.keyframe_clouds.commit();
+        }
     }
 }
 
@@ -220,8 +285,15 @@ impl Task<Bus> for SlamTask {
             let checks =
                 self.slam.stats().loop_closures + self.slam.stats().loop_candidates_rejected;
             if !self.slam.step() {
+                if self.poses_stale && self.map_range_m.is_some() {
+                    self.poses_stale = false;
+                    let slam = &self.slam;
+                    bus.keyframe_clouds
+                        .set_poses((0..slam.keyframes().len()).map(|k| slam.keyframe_pose(k)));
+                }
                 return StepResult::Idle;
             }
+            self.poses_stale = true;
             let s = self.slam.stats();
             if s.loop_closures + s.loop_candidates_rejected != checks {
                 if let Some(c) = self.slam.last_loop_check() {

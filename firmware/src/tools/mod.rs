@@ -5,6 +5,7 @@ pub mod decode_can;
 pub mod decode_hdl32e;
 pub mod decode_xbus;
 pub mod g2o;
+pub mod mesh;
 pub mod pcap2mcap;
 pub mod register;
 

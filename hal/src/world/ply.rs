@@ -185,6 +185,14 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, MeshError> {
         let is_vertex = e.name == "vertex";
         let is_face = e.name == "face";
         if is_vertex {
+            let has = |axis: &str| {
+                e.props
+                    .iter()
+                    .any(|p| matches!(p, Prop::Scalar(n, _) if n == axis))
+            };
+            if e.count > 0 && !(has("x") && has("y") && has("z")) {
+                return Err(err("the vertex element lacks an x, y or z property"));
+            }
             vertex_count = e.count;
             reserve_for(
                 &mut mesh.vertices,
@@ -261,6 +269,13 @@ mod tests {
         let m = parse(text.as_bytes()).expect("parses");
         assert_eq!(m.vertices.len(), 4);
         assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn vertices_without_coordinates_are_refused() {
+        let text = b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nend_header\n1\n2\n";
+        let e = parse(text).err().map(|e| e.to_string()).unwrap_or_default();
+        assert!(e.contains("x, y or z"), "{e}");
     }
 
     #[test]

@@ -41,8 +41,9 @@ impl CellIndex {
         }
     }
 
+    /// The slot where the search for `(ix, iy)` starts.
     #[inline(always)]
-    fn home(&self, ix: i32, iy: i32) -> usize {
+    pub(crate) fn home(&self, ix: i32, iy: i32) -> usize {
         let key = ((ix as u32 as u64) << 32) | iy as u32 as u64;
         mix64(key) as usize & self.mask
     }
@@ -51,7 +52,13 @@ impl CellIndex {
     /// Terminates: the table is never more than half full.
     #[inline(always)]
     pub(crate) fn probe(&self, ix: i32, iy: i32) -> Probe {
-        let mut i = self.home(ix, iy);
+        self.probe_from(self.home(ix, iy), ix, iy)
+    }
+
+    /// [`CellIndex::probe`] from `home`, the key's [`CellIndex::home`].
+    #[inline(always)]
+    pub(crate) fn probe_from(&self, home: usize, ix: i32, iy: i32) -> Probe {
+        let mut i = home & self.mask;
         loop {
             let s = self.slots[i];
             if s.cell == EMPTY {
@@ -61,6 +68,14 @@ impl CellIndex {
                 return Probe::Found(s.cell);
             }
             i = (i + 1) & self.mask;
+        }
+    }
+
+    /// Asks for the cache line of slot `i`: a hint, without effect.
+    #[inline(always)]
+    pub(crate) fn prefetch(&self, i: usize) {
+        if let Some(s) = self.slots.get(i) {
+            crate::prefetch(s);
         }
     }
 

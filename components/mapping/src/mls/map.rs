@@ -4,7 +4,7 @@ use nalgebra::Isometry3;
 
 use super::index::{CellIndex, Probe};
 use super::patch::{self, CellRule, CellUpdate, Patch};
-use crate::{floor_i32, resident_buffer, ParamsError};
+use crate::{floor_i32, floor_small, prefetch, resident_buffer, ParamsError};
 
 /// Cells beyond this many from the origin (along x or y) are out of range:
 /// keeps cell coordinates and their arithmetic far from `i32` overflow.
@@ -17,6 +17,32 @@ pub const MAX_PATCHES_PER_CELL: usize = 16;
 /// Cells a map may hold: cell numbers fit in `u32` with room for the empty
 /// marker, and the table size cannot overflow.
 pub const MAX_CELLS: usize = 1 << 28;
+
+/// Points in flight in the insertion pipeline (a power of two).
+const RING: usize = 32;
+/// How many points ahead of its update a point's table slot is prefetched.
+const SLOT_AHEAD: usize = 16;
+/// How many points ahead of its update a point's cell is looked up and its
+/// patches prefetched (after the slot has arrived).
+const CELL_AHEAD: usize = 8;
+const _: () = assert!(CELL_AHEAD < SLOT_AHEAD && SLOT_AHEAD < RING);
+
+/// Cell marks of a point in the pipeline, beyond any cell number.
+const UNKNOWN: u32 = u32::MAX;
+const OUT_OF_RANGE: u32 = u32::MAX - 1;
+const NON_FINITE: u32 = u32::MAX - 2;
+
+/// A point in the insertion pipeline: its cell coordinates, height, table
+/// slot where the search for its cell starts, and its cell number once
+/// found (or a mark).
+#[derive(Clone, Copy, Default)]
+struct Pending {
+    ix: i32,
+    iy: i32,
+    z: f32,
+    home: u32,
+    cell: u32,
+}
 
 /// Settings of a multi-level surface map.
 #[derive(Clone, Debug, PartialEq)]
@@ -143,8 +169,6 @@ pub struct MlsMap {
     /// Smallest and largest cell coordinates in use (x0, y0, x1, y1):
     /// region visits never look beyond them.
     bounds: Option<[i32; 4]>,
-    /// The cell of the previous point: consecutive returns often share one.
-    last: Option<(i32, i32, u32)>,
     totals: InsertStats,
 }
 
@@ -172,7 +196,6 @@ impl MlsMap {
             cells: 0,
             patch_total: 0,
             bounds: None,
-            last: None,
             totals: InsertStats::default(),
             params,
         })
@@ -195,61 +218,123 @@ impl MlsMap {
         let (r00, r01, r02) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
         let (r10, r11, r12) = (m[(1, 0)], m[(1, 1)], m[(1, 2)]);
         let (r20, r21, r22) = (m[(2, 0)], m[(2, 1)], m[(2, 2)]);
-        let mut s = InsertStats::default();
-        for p in points_sensor {
+        self.insert_with(points_sensor, |p| {
             let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
-            let q = [
+            [
                 r00 * x + r01 * y + r02 * z + t.x,
                 r10 * x + r11 * y + r12 * z + t.y,
                 r20 * x + r21 * y + r22 * z + t.z,
-            ];
-            self.insert_one(q, &mut s);
-        }
-        self.add_totals(&s);
-        s
+            ]
+        })
     }
 
     /// Inserts points already in the map frame. Allocates nothing.
     pub fn insert_points(&mut self, points_map: &[[f64; 3]]) -> InsertStats {
+        self.insert_with(points_map, |&q| q)
+    }
+
+    /// Inserts `points`, mapped by `to_map`, in their order, as a software
+    /// pipeline: a point's table slot is prefetched [`SLOT_AHEAD`] points
+    /// before it is applied, and its cell found and that cell's patches
+    /// prefetched [`CELL_AHEAD`] points before (consecutive returns of one
+    /// firing land in far-apart cells). The map is the same as applying
+    /// the points one after the other.
+    #[inline(always)]
+    fn insert_with<P>(&mut self, points: &[P], to_map: impl Fn(&P) -> [f64; 3]) -> InsertStats {
         let mut s = InsertStats::default();
-        for &q in points_map {
-            self.insert_one(q, &mut s);
+        let mut ring = [Pending::default(); RING];
+        let n = points.len();
+        for k in 0..n + SLOT_AHEAD {
+            if k < n {
+                ring[k % RING] = self.locate(to_map(&points[k]));
+            }
+            if let Some(j) = (k + CELL_AHEAD).checked_sub(SLOT_AHEAD) {
+                if j < n {
+                    self.find_ahead(&mut ring[j % RING]);
+                }
+            }
+            if let Some(i) = k.checked_sub(SLOT_AHEAD) {
+                self.apply(&ring[i % RING], &mut s);
+            }
         }
         self.add_totals(&s);
         s
     }
 
+    /// Stage 1: the point's cell and table slot, the slot prefetched.
     #[inline(always)]
-    fn insert_one(&mut self, q: [f64; 3], s: &mut InsertStats) {
-        s.points += 1;
+    fn locate(&self, q: [f64; 3]) -> Pending {
         // NaN fails every comparison: one test rejects NaN and infinities.
         let (fx, fy) = (q[0] * self.inv_res, q[1] * self.inv_res);
         if !(fx.abs() < MAX_CELL_COORD && fy.abs() < MAX_CELL_COORD && q[2].abs() <= MAX_HEIGHT_M) {
-            if q.iter().all(|v| v.is_finite()) {
-                s.out_of_range += 1;
-            } else {
-                s.non_finite += 1;
-            }
+            let finite = q.iter().all(|v| v.is_finite());
+            return Pending {
+                cell: if finite { OUT_OF_RANGE } else { NON_FINITE },
+                ..Pending::default()
+            };
+        }
+        let (ix, iy) = (floor_small(fx), floor_small(fy));
+        let home = self.index.home(ix, iy);
+        self.index.prefetch(home);
+        Pending {
+            ix,
+            iy,
+            z: q[2] as f32,
+            cell: UNKNOWN,
+            home: home as u32,
+        }
+    }
+
+    /// Stage 2: the point's cell if it is already known (the slot is in
+    /// cache by now), its patches prefetched.
+    #[inline(always)]
+    fn find_ahead(&self, p: &mut Pending) {
+        if p.cell != UNKNOWN {
             return;
         }
-        let (ix, iy) = (floor_i32(fx), floor_i32(fy));
-        let cell = match self.last {
-            Some((lx, ly, c)) if lx == ix && ly == iy => c,
-            _ => match self.cell_or_new(ix, iy) {
-                Some(c) => {
-                    self.last = Some((ix, iy, c));
-                    c
-                }
+        if let Probe::Found(c) = self.index.probe_from(p.home as usize, p.ix, p.iy) {
+            p.cell = c;
+            let c = c as usize;
+            if let Some(len) = self.lens.get(c) {
+                prefetch(len);
+            }
+            let base = c * self.stride;
+            if let Some(first) = self.patches.get(base) {
+                prefetch(first);
+            }
+            if let Some(second) = self.patches.get(base + 1) {
+                prefetch(second);
+            }
+        }
+    }
+
+    /// Stage 3: the point merged into its cell (made now if it was new).
+    #[inline(always)]
+    fn apply(&mut self, p: &Pending, s: &mut InsertStats) {
+        s.points += 1;
+        let cell = match p.cell {
+            OUT_OF_RANGE => {
+                s.out_of_range += 1;
+                return;
+            }
+            NON_FINITE => {
+                s.non_finite += 1;
+                return;
+            }
+            // Not found ahead: new, or made by a point since.
+            UNKNOWN => match self.cell_or_new(p.home as usize, p.ix, p.iy) {
+                Some(c) => c,
                 None => {
                     s.dropped_map_full += 1;
                     return;
                 }
             },
+            c => c,
         } as usize;
         let base = cell * self.stride;
         let mut len = self.lens[cell] as usize;
         let slots = &mut self.patches[base..base + self.stride];
-        match patch::insert(slots, &mut len, q[2] as f32, &self.rule) {
+        match patch::insert(slots, &mut len, p.z, &self.rule) {
             CellUpdate::Updated { merged } => {
                 self.patch_total -= merged as usize;
                 s.inserted += 1;
@@ -265,8 +350,8 @@ impl MlsMap {
 
     /// The cell number of `(ix, iy)`, made if new and there is room.
     #[inline(always)]
-    fn cell_or_new(&mut self, ix: i32, iy: i32) -> Option<u32> {
-        match self.index.probe(ix, iy) {
+    fn cell_or_new(&mut self, home: usize, ix: i32, iy: i32) -> Option<u32> {
+        match self.index.probe_from(home, ix, iy) {
             Probe::Found(c) => Some(c),
             Probe::Vacant(at) => {
                 if self.cells >= self.max_cells {
@@ -399,7 +484,6 @@ impl MlsMap {
             self.index.insert_new(ix, iy, c as u32);
             self.grow_bounds(ix, iy);
         }
-        self.last = None;
         evicted
     }
 
@@ -410,7 +494,6 @@ impl MlsMap {
         self.cells = 0;
         self.patch_total = 0;
         self.bounds = None;
-        self.last = None;
         self.totals = InsertStats::default();
     }
 

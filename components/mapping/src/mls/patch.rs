@@ -48,13 +48,15 @@ impl Patch {
         self.max - self.min
     }
 
-    /// Distance from `z` to the patch's height interval (0 inside).
+    /// Distance from `z` to the patch's height interval (0 inside), without
+    /// branches: `min - z` and `z - max` are not both positive.
     #[inline(always)]
     fn distance(&self, z: f32) -> f32 {
-        if z < self.min {
-            self.min - z
-        } else if z > self.max {
-            z - self.max
+        let below = self.min - z;
+        let above = z - self.max;
+        let d = if below > above { below } else { above };
+        if d > 0.0 {
+            d
         } else {
             0.0
         }
@@ -72,8 +74,13 @@ impl Patch {
         };
         self.mean += k * (z - self.mean);
         self.variance -= k * self.variance;
-        self.min = self.min.min(z);
-        self.max = self.max.max(z);
+        // Heights are finite: plain comparisons (no NaN handling).
+        if z < self.min {
+            self.min = z;
+        }
+        if z > self.max {
+            self.max = z;
+        }
         self.count = self.count.saturating_add(1);
     }
 
@@ -119,7 +126,7 @@ pub(crate) enum CellUpdate {
 /// Offers height `z` to a cell holding `patches[..*len]` (sorted by height,
 /// each separated from the next by more than `rule.gap`), of capacity
 /// `patches.len()`. Keeps the invariant.
-#[inline]
+#[inline(always)]
 pub(crate) fn insert(
     patches: &mut [Patch],
     len: &mut usize,
@@ -131,29 +138,40 @@ pub(crate) fn insert(
     // patches) go to the lower one.
     let mut best = usize::MAX;
     let mut best_d = f32::INFINITY;
-    let mut insert_at = n;
     for (i, p) in patches[..n].iter().enumerate() {
         let d = p.distance(z);
         if d <= rule.gap && d < best_d {
             best = i;
             best_d = d;
         }
-        if insert_at == n && z < p.min {
-            insert_at = i;
-        }
     }
-    if best != usize::MAX {
-        let p = &mut patches[best];
-        p.add(z, rule.point_variance);
-        if p.extent() > rule.vertical_threshold {
-            p.kind = PatchKind::Vertical;
-        }
-        let merged = merge_around(patches, len, best, rule);
-        return CellUpdate::Updated { merged };
+    if best == usize::MAX {
+        return add_level(patches, len, z, rule);
     }
+    let p = &mut patches[best];
+    p.add(z, rule.point_variance);
+    if p.extent() > rule.vertical_threshold {
+        p.kind = PatchKind::Vertical;
+    }
+    // A grown patch rarely reaches a neighbour: test before fusing.
+    let reaches_up = best + 1 < n && patches[best + 1].min - patches[best].max <= rule.gap;
+    let reaches_down = best > 0 && patches[best].min - patches[best - 1].max <= rule.gap;
+    let merged = if reaches_up || reaches_down {
+        merge_around(patches, len, best, rule)
+    } else {
+        0
+    };
+    CellUpdate::Updated { merged }
+}
+
+/// A new patch of `z` in its place by height, or `Full`.
+#[inline(never)]
+fn add_level(patches: &mut [Patch], len: &mut usize, z: f32, rule: &CellRule) -> CellUpdate {
+    let n = (*len).min(patches.len());
     if n == patches.len() {
         return CellUpdate::Full;
     }
+    let insert_at = patches[..n].iter().position(|p| z < p.min).unwrap_or(n);
     // Shift the higher patches up to keep the list sorted.
     let mut i = n;
     while i > insert_at {
@@ -168,6 +186,8 @@ pub(crate) fn insert(
 /// Fuses patch `i` with its neighbours while they are within the gap of it
 /// (a grown patch can close the gap to the next level); returns how many
 /// were fused.
+#[cold]
+#[inline(never)]
 fn merge_around(patches: &mut [Patch], len: &mut usize, mut i: usize, rule: &CellRule) -> u32 {
     let mut merged = 0;
     while i + 1 < *len && patches[i + 1].min - patches[i].max <= rule.gap {
@@ -240,6 +260,100 @@ mod tests {
         assert_eq!(p[0].count, 5);
         assert_eq!(p[0].kind, PatchKind::Vertical);
         assert_eq!(p[1].min, 2.0);
+    }
+
+    /// The update as first written (branching distance, fusion tried on
+    /// every update, insertion place found in the same pass), kept to check
+    /// the faster one against.
+    fn reference_insert(
+        patches: &mut [Patch],
+        len: &mut usize,
+        z: f32,
+        rule: &CellRule,
+    ) -> CellUpdate {
+        let dist = |p: &Patch| {
+            if z < p.min {
+                p.min - z
+            } else if z > p.max {
+                z - p.max
+            } else {
+                0.0
+            }
+        };
+        let n = (*len).min(patches.len());
+        let (mut best, mut best_d, mut insert_at) = (usize::MAX, f32::INFINITY, n);
+        for (i, p) in patches[..n].iter().enumerate() {
+            let d = dist(p);
+            if d <= rule.gap && d < best_d {
+                best = i;
+                best_d = d;
+            }
+            if insert_at == n && z < p.min {
+                insert_at = i;
+            }
+        }
+        if best != usize::MAX {
+            let p = &mut patches[best];
+            p.add(z, rule.point_variance);
+            if p.extent() > rule.vertical_threshold {
+                p.kind = PatchKind::Vertical;
+            }
+            let merged = merge_around(patches, len, best, rule);
+            return CellUpdate::Updated { merged };
+        }
+        if n == patches.len() {
+            return CellUpdate::Full;
+        }
+        patches.copy_within(insert_at..n, insert_at + 1);
+        patches[insert_at] = Patch::new(z, rule.point_variance);
+        *len = n + 1;
+        CellUpdate::Added
+    }
+
+    #[test]
+    fn the_update_matches_the_reference_bit_for_bit() {
+        // SplitMix64 heights: levels that grow into each other and fuse,
+        // points between two levels, full cells; zero and equal heights.
+        let mut state = 5u64;
+        let mut next = || {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut x = state;
+            x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            ((x ^ (x >> 31)) >> 40) as f32 / (1u32 << 24) as f32
+        };
+        let (mut merges, mut fulls) = (0, 0);
+        for cap in 1..=5 {
+            for round in 0..200 {
+                let mut a = [Patch::default(); 5];
+                let mut b = a;
+                let (mut na, mut nb) = (0, 0);
+                for k in 0..60 {
+                    let u = next();
+                    let z = match (round + k) % 4 {
+                        0 => (u * 8.0).floor() * 0.6,
+                        1 => u * 5.0 - 1.0,
+                        2 => 0.0,
+                        _ => (u * 16.0).floor() * 0.3 + 0.15,
+                    };
+                    let ra = insert(&mut a[..cap], &mut na, z, &RULE);
+                    let rb = reference_insert(&mut b[..cap], &mut nb, z, &RULE);
+                    assert_eq!(ra, rb, "cap {cap} round {round} k {k} z {z}");
+                    assert_eq!(na, nb);
+                    for (p, q) in a[..na].iter().zip(&b[..nb]) {
+                        assert_eq!(p.mean.to_bits(), q.mean.to_bits());
+                        assert_eq!(p.variance.to_bits(), q.variance.to_bits());
+                        assert_eq!(
+                            (p.min, p.max, p.count, p.kind),
+                            (q.min, q.max, q.count, q.kind)
+                        );
+                    }
+                    merges += matches!(ra, CellUpdate::Updated { merged } if merged > 0) as u32;
+                    fulls += (ra == CellUpdate::Full) as u32;
+                }
+            }
+        }
+        assert!(merges > 100 && fulls > 100, "{merges} merges, {fulls} full");
     }
 
     #[test]
