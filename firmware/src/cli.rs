@@ -56,6 +56,31 @@ pub enum Command {
     /// scans with KITTI poses, or the keyframes of a recording run through
     /// the drivers and SLAM again. Prints the time, blocks and triangles.
     Mesh(MeshArgs),
+    /// Plan with ARA* on an SBPL lattice environment (EnvironmentNAVXYTHETALAT
+    /// .cfg and .mprim files, point robot): prints the first solution's and
+    /// the optimal solution's times, costs and expansions.
+    Plan(PlanArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct PlanArgs {
+    /// SBPL environment (EnvironmentNAVXYTHETALAT .cfg).
+    #[arg(long, value_name = "ENV.cfg")]
+    pub sbpl_env: PathBuf,
+    /// SBPL motion primitives.
+    #[arg(long, value_name = "FILE.mprim")]
+    pub mprim: PathBuf,
+    /// Inflation of the first search; it falls by --eps-step to 1.
+    #[arg(long, default_value_t = 3.0)]
+    pub eps: f64,
+    #[arg(long, default_value_t = 0.2)]
+    pub eps_step: f64,
+    /// Expansions per anytime step.
+    #[arg(long, default_value_t = 1000)]
+    pub quantum: u32,
+    /// Write the figures and the path as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -297,6 +322,7 @@ pub fn main() -> ExitCode {
         Command::World(WorldCommand::Export(a)) => modes::world_export(a),
         Command::G2o(a) => modes::g2o(a),
         Command::Register(a) => modes::register(a),
+        Command::Plan(a) => modes::plan(a),
         Command::Mesh(a) => modes::mesh(a, progress),
     };
     match result {

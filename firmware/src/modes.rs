@@ -664,6 +664,19 @@ pub fn g2o(a: G2oArgs) -> Result<ExitCode, Error> {
     Ok(ExitCode::SUCCESS)
 }
 
+pub fn plan(a: crate::cli::PlanArgs) -> Result<ExitCode, Error> {
+    let r = crate::tools::plan::plan_sbpl(&a)?;
+    println!("{r}");
+    if let Some(path) = &a.report {
+        report::write_json(path, &r)?;
+    }
+    Ok(if r.cost.is_some() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
 pub fn register(a: RegisterArgs) -> Result<ExitCode, Error> {
     let r = crate::tools::register::register(&a.source, &a.target, a.init.as_deref(), a.voxel)?;
     println!("{r}");

@@ -7,6 +7,7 @@ pub mod decode_xbus;
 pub mod g2o;
 pub mod mesh;
 pub mod pcap2mcap;
+pub mod plan;
 pub mod register;
 
 pub type Error = Box<dyn std::error::Error>;
