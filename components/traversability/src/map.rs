@@ -1,0 +1,428 @@
+//! The traversability graph: one node per reachable surface patch.
+//!
+//! Growth starts at the rover's patch and visits the 8 neighbouring cells
+//! of every traversable node in breadth-first order; in each it takes the
+//! horizontal patch nearest in height within `max_step_m`, so a floor and
+//! the deck above it never connect except through a ramp. Obstacle and
+//! unknown nodes are leaves. Node numbers follow the growth, which depends
+//! only on the map: the same map and start give the same graph.
+//!
+//! Classes:
+//! - *unknown*: fewer than `min_inliers` support points fit a plane;
+//! - *obstacle*: the plane is too steep, two neighbouring ground cells
+//!   under the footprint differ by more than a step, or something lies in
+//!   the body's height band within the inscribed circle (where the body is
+//!   in every orientation);
+//! - *frontier*: traversable, with a neighbouring cell that has no patch
+//!   near its height at all (unobserved space);
+//! - *explorable*: traversable, next to an unknown node;
+//! - *traversable*: the rest.
+
+use std::collections::{HashMap, VecDeque};
+
+use speleo_mapping::mls::{MlsMap, Patch, PatchKind};
+use thiserror::Error;
+
+use crate::params::TravParams;
+use crate::plane;
+
+/// No node.
+pub const NONE: u32 = u32::MAX;
+
+/// The 8 neighbours, counter-clockwise from +x.
+pub const NEIGHBOURS: [(i32, i32); 8] = [
+    (1, 0),
+    (1, 1),
+    (0, 1),
+    (-1, 1),
+    (-1, 0),
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TravClass {
+    Traversable,
+    Obstacle,
+    Unknown,
+    Explorable,
+    Frontier,
+}
+
+impl TravClass {
+    /// The robot may stand here.
+    pub fn is_drivable(self) -> bool {
+        matches!(
+            self,
+            TravClass::Traversable | TravClass::Explorable | TravClass::Frontier
+        )
+    }
+}
+
+/// One patch of the graph.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    pub ix: i32,
+    pub iy: i32,
+    /// Height of the patch (its mean); `ground_z` is the support plane's
+    /// height at the cell centre (the patch mean when there is no plane).
+    pub patch_z: f32,
+    pub ground_z: f32,
+    pub class: TravClass,
+    pub slope_deg: f32,
+    /// Unit normal of the support plane (up when there is none).
+    pub normal: [f32; 3],
+    /// Neighbours in [`NEIGHBOURS`] order, [`NONE`] where there is none.
+    pub neighbours: [u32; 8],
+    /// Some neighbouring cell has nothing near this height.
+    pub touches_unobserved: bool,
+}
+
+#[derive(Debug, Error, PartialEq)]
+pub enum BuildError {
+    #[error("invalid traversability parameters: {0}")]
+    Params(String),
+    #[error("no ground patch within a step of the start ({x:.2}, {y:.2}, {z:.2})")]
+    NoStartPatch { x: f64, y: f64, z: f64 },
+}
+
+/// What a build did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BuildStats {
+    pub nodes: usize,
+    pub traversable: usize,
+    pub obstacle: usize,
+    pub unknown: usize,
+    pub explorable: usize,
+    pub frontier: usize,
+    /// The node limit stopped the growth.
+    pub full: bool,
+}
+
+/// The traversability graph; see the module documentation.
+pub struct TravMap {
+    params: TravParams,
+    resolution: f64,
+    nodes: Vec<Node>,
+    /// First node of each cell; the others follow through `next_in_cell`.
+    by_cell: HashMap<(i32, i32), u32>,
+    next_in_cell: Vec<u32>,
+    queue: VecDeque<u32>,
+    /// Scratch: the support points of one footprint, and their heights
+    /// on the footprint's square grid (NaN where none).
+    support: Vec<[f64; 3]>,
+    heights: Vec<f32>,
+    stats: BuildStats,
+}
+
+impl TravMap {
+    /// Storage for `params.max_nodes` nodes, taken now.
+    pub fn new(params: TravParams) -> Result<Self, BuildError> {
+        params.check().map_err(BuildError::Params)?;
+        let n = params.max_nodes;
+        Ok(TravMap {
+            resolution: 0.1,
+            nodes: Vec::with_capacity(n),
+            by_cell: HashMap::with_capacity(n),
+            next_in_cell: Vec::with_capacity(n),
+            queue: VecDeque::with_capacity(n),
+            support: Vec::with_capacity(1024),
+            heights: Vec::with_capacity(1024),
+            stats: BuildStats::default(),
+            params,
+        })
+    }
+
+    pub fn params(&self) -> &TravParams {
+        &self.params
+    }
+
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    pub fn node(&self, i: u32) -> Option<&Node> {
+        self.nodes.get(i as usize)
+    }
+
+    pub fn stats(&self) -> BuildStats {
+        self.stats
+    }
+
+    pub fn resolution(&self) -> f64 {
+        self.resolution
+    }
+
+    /// Centre of node `n`'s cell on its ground.
+    pub fn position(&self, n: &Node) -> [f64; 3] {
+        [
+            (n.ix as f64 + 0.5) * self.resolution,
+            (n.iy as f64 + 0.5) * self.resolution,
+            n.ground_z as f64,
+        ]
+    }
+
+    /// The nodes of cell `(ix, iy)`.
+    pub fn nodes_in_cell(&self, ix: i32, iy: i32) -> impl Iterator<Item = u32> + '_ {
+        let mut i = self.by_cell.get(&(ix, iy)).copied().unwrap_or(NONE);
+        std::iter::from_fn(move || {
+            if i == NONE {
+                return None;
+            }
+            let here = i;
+            i = self.next_in_cell[i as usize];
+            Some(here)
+        })
+    }
+
+    /// The node under `(x, y)` whose ground is nearest `z` within `tol`.
+    pub fn node_at(&self, x: f64, y: f64, z: f64, tol: f64) -> Option<u32> {
+        let (ix, iy) = (
+            (x / self.resolution).floor() as i32,
+            (y / self.resolution).floor() as i32,
+        );
+        self.nodes_in_cell(ix, iy)
+            .map(|i| (i, (self.nodes[i as usize].ground_z as f64 - z).abs()))
+            .filter(|&(_, d)| d <= tol)
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+            .map(|(i, _)| i)
+    }
+
+    /// Grow the graph over `mls` from the ground patch under `start`
+    /// (x, y and the ground height, within a step). Replaces the previous
+    /// graph; allocates nothing while the node limit holds.
+    pub fn build(&mut self, mls: &MlsMap, start: [f64; 3]) -> Result<BuildStats, BuildError> {
+        self.nodes.clear();
+        self.by_cell.clear();
+        self.next_in_cell.clear();
+        self.queue.clear();
+        self.stats = BuildStats::default();
+        self.resolution = mls.params().resolution_m;
+        let (ix, iy) = mls.cell_of(start[0], start[1]);
+        let no_start = BuildError::NoStartPatch {
+            x: start[0],
+            y: start[1],
+            z: start[2],
+        };
+        let Some(p) = ground_patch(mls.cell(ix, iy), start[2] as f32, self.params.max_step_m)
+        else {
+            return Err(no_start);
+        };
+        let first = self.add_node(ix, iy, p.mean).ok_or(no_start)?;
+        self.queue.push_back(first);
+        while let Some(i) = self.queue.pop_front() {
+            self.classify(mls, i);
+            let n = self.nodes[i as usize];
+            if !n.class.is_drivable() {
+                continue;
+            }
+            for (k, (dx, dy)) in NEIGHBOURS.iter().enumerate() {
+                let (jx, jy) = (n.ix + dx, n.iy + dy);
+                let cell = mls.cell(jx, jy);
+                let Some(q) = ground_patch(cell, n.patch_z, self.params.max_step_m) else {
+                    if !occupied_near(cell, n.patch_z, &self.params) {
+                        self.nodes[i as usize].touches_unobserved = true;
+                    }
+                    continue;
+                };
+                let j = match self.find(jx, jy, q.mean) {
+                    Some(j) => j,
+                    None => match self.add_node(jx, jy, q.mean) {
+                        Some(j) => {
+                            self.queue.push_back(j);
+                            j
+                        }
+                        None => {
+                            self.stats.full = true;
+                            continue;
+                        }
+                    },
+                };
+                self.nodes[i as usize].neighbours[k] = j;
+                self.nodes[j as usize].neighbours[(k + 4) % 8] = i;
+            }
+        }
+        self.finish_classes();
+        Ok(self.stats)
+    }
+
+    fn find(&self, ix: i32, iy: i32, patch_z: f32) -> Option<u32> {
+        self.nodes_in_cell(ix, iy)
+            .find(|&i| self.nodes[i as usize].patch_z == patch_z)
+    }
+
+    fn add_node(&mut self, ix: i32, iy: i32, patch_z: f32) -> Option<u32> {
+        if self.nodes.len() >= self.params.max_nodes {
+            return None;
+        }
+        let i = self.nodes.len() as u32;
+        self.nodes.push(Node {
+            ix,
+            iy,
+            patch_z,
+            ground_z: patch_z,
+            class: TravClass::Unknown,
+            slope_deg: 0.0,
+            normal: [0.0, 0.0, 1.0],
+            neighbours: [NONE; 8],
+            touches_unobserved: false,
+        });
+        let head = self.by_cell.insert((ix, iy), i).unwrap_or(NONE);
+        self.next_in_cell.push(head);
+        Some(i)
+    }
+
+    /// Support plane, steps and body check of node `i`.
+    fn classify(&mut self, mls: &MlsMap, i: u32) {
+        let p = &self.params;
+        let n = self.nodes[i as usize];
+        let res = self.resolution;
+        let (cx, cy) = ((n.ix as f64 + 0.5) * res, (n.iy as f64 + 0.5) * res);
+        // Ground within the footprint: the horizontal patch of each cell
+        // nearest this one's height, within the height the slope limit
+        // allows over the radius.
+        let reach = (p.footprint_radius_m / res).ceil() as i32;
+        let r2 = (p.footprint_radius_m / res).powi(2) + 1e-6;
+        let band =
+            p.max_step_m + (p.footprint_radius_m * p.max_slope_deg.to_radians().tan()) as f32;
+        let side = (2 * reach + 1) as usize;
+        self.support.clear();
+        self.heights.clear();
+        self.heights.resize(side * side, f32::NAN);
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if ((dx * dx + dy * dy) as f64) > r2 {
+                    continue;
+                }
+                let (x, y) = (cx + dx as f64 * res, cy + dy as f64 * res);
+                if let Some(g) = ground_patch(mls.cell(n.ix + dx, n.iy + dy), n.patch_z, band) {
+                    if self.support.len() < self.support.capacity() {
+                        self.support.push([x, y, g.mean as f64]);
+                        self.heights[(dy + reach) as usize * side + (dx + reach) as usize] = g.mean;
+                    }
+                }
+            }
+        }
+        let seed = ((n.ix as u32 as u64) << 32 | n.iy as u32 as u64) ^ n.patch_z.to_bits() as u64;
+        let fitted = plane::fit(
+            &self.support,
+            seed,
+            p.ransac_iterations,
+            p.inlier_distance_m as f64,
+            p.min_inliers,
+        );
+        let Some(pl) = fitted else {
+            self.nodes[i as usize].class = TravClass::Unknown;
+            return;
+        };
+        let step = has_step(&self.heights, side, p.max_step_m);
+        let steep = pl.slope_deg() > p.max_slope_deg;
+        let blocked = steep || step || self.body_hits(mls, n.ix, n.iy, &pl);
+        let node = &mut self.nodes[i as usize];
+        node.ground_z = pl.z_at(cx, cy) as f32;
+        node.slope_deg = pl.slope_deg() as f32;
+        node.normal = pl.normal().map(|v| v as f32);
+        node.class = if blocked {
+            TravClass::Obstacle
+        } else {
+            TravClass::Traversable
+        };
+    }
+
+    /// Whether anything lies in the body's height band over the plane
+    /// within the inscribed circle.
+    fn body_hits(&self, mls: &MlsMap, ix: i32, iy: i32, pl: &plane::Plane) -> bool {
+        let p = &self.params;
+        let res = self.resolution;
+        let reach = (p.inscribed_radius_m / res).ceil() as i32;
+        let r2 = (p.inscribed_radius_m / res).powi(2) + 1e-6;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if ((dx * dx + dy * dy) as f64) > r2 {
+                    continue;
+                }
+                let (x, y) = (
+                    (ix + dx) as f64 * res + res / 2.0,
+                    (iy + dy) as f64 * res + res / 2.0,
+                );
+                let g = pl.z_at(x, y) as f32;
+                let (lo, hi) = (g + p.ground_clearance_m, g + p.robot_height_m);
+                if mls
+                    .cell(ix + dx, iy + dy)
+                    .iter()
+                    .any(|q| q.max >= lo && q.min <= hi)
+                {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Frontier and explorable from the neighbourhoods; the counts.
+    fn finish_classes(&mut self) {
+        for i in 0..self.nodes.len() {
+            let n = self.nodes[i];
+            if n.class != TravClass::Traversable {
+                continue;
+            }
+            let near_unknown = n
+                .neighbours
+                .iter()
+                .any(|&j| j != NONE && self.nodes[j as usize].class == TravClass::Unknown);
+            self.nodes[i].class = if n.touches_unobserved {
+                TravClass::Frontier
+            } else if near_unknown {
+                TravClass::Explorable
+            } else {
+                TravClass::Traversable
+            };
+        }
+        let mut s = BuildStats {
+            nodes: self.nodes.len(),
+            full: self.stats.full,
+            ..BuildStats::default()
+        };
+        for n in &self.nodes {
+            match n.class {
+                TravClass::Traversable => s.traversable += 1,
+                TravClass::Obstacle => s.obstacle += 1,
+                TravClass::Unknown => s.unknown += 1,
+                TravClass::Explorable => s.explorable += 1,
+                TravClass::Frontier => s.frontier += 1,
+            }
+        }
+        self.stats = s;
+    }
+}
+
+/// Whether two side-by-side ground cells of the footprint differ by more
+/// than a step (a ledge or a rock; a smooth change of slope is not one).
+fn has_step(heights: &[f32], side: usize, max_step: f32) -> bool {
+    let at = |x: usize, y: usize| heights[y * side + x];
+    (0..side).any(|y| {
+        (0..side).any(|x| {
+            let h = at(x, y);
+            let right = x + 1 < side && (at(x + 1, y) - h).abs() > max_step;
+            let up = y + 1 < side && (at(x, y + 1) - h).abs() > max_step;
+            // NaN compares false: cells without ground never count.
+            right || up
+        })
+    })
+}
+
+/// The horizontal patch of a cell nearest `z` within `tol` (the lower on a
+/// tie).
+fn ground_patch(cell: &[Patch], z: f32, tol: f32) -> Option<&Patch> {
+    cell.iter()
+        .filter(|q| q.kind == PatchKind::Horizontal && (q.mean - z).abs() <= tol)
+        .min_by(|a, b| (a.mean - z).abs().total_cmp(&(b.mean - z).abs()))
+}
+
+/// Whether a cell holds anything between a step below `z` and the robot's
+/// height above it (a wall or a drop seen, rather than nothing seen).
+fn occupied_near(cell: &[Patch], z: f32, p: &TravParams) -> bool {
+    let (lo, hi) = (z - 1.0, z + p.robot_height_m);
+    cell.iter().any(|q| q.max >= lo && q.min <= hi)
+}

@@ -1,0 +1,80 @@
+//! What the traversability map knows of the robot.
+
+/// Limits and robot dimensions (m, degrees).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TravParams {
+    /// Steepest support plane the robot drives.
+    pub max_slope_deg: f64,
+    /// Highest step the robot climbs: between neighbouring patches (for
+    /// them to connect) and between the support plane and any ground
+    /// patch under the footprint.
+    pub max_step_m: f32,
+    /// Radius of the ground that carries the robot (the support plane is
+    /// fitted over it).
+    pub footprint_radius_m: f64,
+    /// Radius the body covers in every orientation (half its width): the
+    /// orientation-free obstacle check looks only there.
+    pub inscribed_radius_m: f64,
+    /// The body spans from this height above the plane...
+    pub ground_clearance_m: f32,
+    /// ...to this one.
+    pub robot_height_m: f32,
+    /// Fewer plane inliers make a patch unknown (the paper: 5).
+    pub min_inliers: usize,
+    /// Distance from the plane that makes a point an inlier.
+    pub inlier_distance_m: f32,
+    pub ransac_iterations: usize,
+    /// Most patches the map holds.
+    pub max_nodes: usize,
+}
+
+impl Default for TravParams {
+    /// The simulated Asguard-like rover: 0.52 m wheelbase and track, 0.19 m
+    /// leg-wheels (about 0.9 x 0.7 m), the chassis 0.2 m over the ground,
+    /// the LiDAR on top at 0.6 m.
+    fn default() -> Self {
+        TravParams {
+            max_slope_deg: 25.0,
+            max_step_m: 0.12,
+            footprint_radius_m: 0.4,
+            inscribed_radius_m: 0.3,
+            ground_clearance_m: 0.2,
+            robot_height_m: 0.7,
+            min_inliers: 5,
+            inlier_distance_m: 0.04,
+            ransac_iterations: 24,
+            max_nodes: 1 << 20,
+        }
+    }
+}
+
+impl TravParams {
+    /// Why these parameters cannot work, if they cannot.
+    pub fn check(&self) -> Result<(), String> {
+        let positive = [
+            ("max_slope_deg", self.max_slope_deg),
+            ("max_step_m", self.max_step_m as f64),
+            ("footprint_radius_m", self.footprint_radius_m),
+            ("inscribed_radius_m", self.inscribed_radius_m),
+            ("robot_height_m", self.robot_height_m as f64),
+            ("inlier_distance_m", self.inlier_distance_m as f64),
+        ];
+        for (k, v) in positive {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(format!("{k} must be a positive number"));
+            }
+        }
+        if !(self.ground_clearance_m > self.max_step_m
+            && self.ground_clearance_m < self.robot_height_m)
+        {
+            return Err("ground_clearance_m must lie between max_step_m and robot_height_m".into());
+        }
+        if self.max_slope_deg >= 90.0 || self.min_inliers < 3 || self.ransac_iterations == 0 {
+            return Err(
+                "max_slope_deg below 90, min_inliers at least 3, ransac_iterations at least 1"
+                    .into(),
+            );
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,213 @@
+//! Traversability classes on synthetic terrain: slope, step, obstacle,
+//! unknown, explorable, frontier, and two levels over each other.
+
+use speleo_mapping::mls::{MlsMap, MlsParams};
+use speleo_traversability::{TravClass, TravMap, TravParams, NONE};
+
+/// Points every 5 cm over `[x0, x1) x [y0, y1)` at height `z(x, y)`.
+fn surface(m: &mut MlsMap, x: (f64, f64), y: (f64, f64), z: impl Fn(f64, f64) -> f64) {
+    let mut pts = Vec::new();
+    let mut px = x.0 + 0.025;
+    while px < x.1 {
+        let mut py = y.0 + 0.025;
+        while py < y.1 {
+            pts.push([px, py, z(px, py)]);
+            py += 0.05;
+        }
+        px += 0.05;
+    }
+    m.insert_points(&pts);
+}
+
+/// A vertical column of points over `[x0, x1) x [y0, y1)` from `z0` to `z1`.
+fn block(m: &mut MlsMap, x: (f64, f64), y: (f64, f64), z: (f64, f64)) {
+    let mut h = z.0;
+    while h <= z.1 {
+        surface(m, x, y, |_, _| h);
+        h += 0.05;
+    }
+}
+
+fn mls() -> MlsMap {
+    MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn build(m: &MlsMap, start: [f64; 3]) -> TravMap {
+    let mut t = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    t.build(m, start).unwrap_or_else(|e| panic!("{e}"));
+    t
+}
+
+fn class_at(t: &TravMap, x: f64, y: f64, z: f64) -> Option<TravClass> {
+    t.node_at(x, y, z, 0.2)
+        .and_then(|i| t.node(i))
+        .map(|n| n.class)
+}
+
+#[test]
+fn flat_ground_is_traversable_and_its_edge_is_frontier() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 4.0), (0.0, 4.0), |_, _| 0.0);
+    let t = build(&m, [2.0, 2.0, 0.0]);
+    let s = t.stats();
+    assert_eq!(s.nodes, 1600, "{s:?}");
+    assert_eq!(class_at(&t, 2.0, 2.0, 0.0), Some(TravClass::Traversable));
+    assert_eq!(class_at(&t, 0.05, 2.0, 0.0), Some(TravClass::Frontier));
+    // Every border cell and only those.
+    assert_eq!(s.frontier, 4 * 40 - 4, "{s:?}");
+    assert_eq!(s.obstacle + s.unknown, 0, "{s:?}");
+    let n = t.node(0).unwrap_or_else(|| panic!("no node"));
+    assert!(n.neighbours.iter().all(|&j| j != NONE));
+}
+
+#[test]
+fn slopes_beyond_the_limit_are_obstacles() {
+    for (deg, drivable) in [(15.0f64, true), (35.0, false)] {
+        let mut m = mls();
+        let k = deg.to_radians().tan();
+        surface(&mut m, (0.0, 2.0), (0.0, 4.0), |_, _| 0.0);
+        surface(&mut m, (2.0, 5.0), (0.0, 4.0), |x, _| k * (x - 2.0));
+        let t = build(&m, [1.0, 2.0, 0.0]);
+        let c = class_at(&t, 3.5, 2.0, 1.5 * k);
+        if drivable {
+            assert_eq!(c, Some(TravClass::Traversable), "{deg} deg");
+            let i = t.node_at(3.5, 2.0, 1.5 * k, 0.2).unwrap_or(NONE);
+            let slope = t.node(i).map_or(0.0, |n| n.slope_deg) as f64;
+            assert!((slope - deg).abs() < 0.5, "{deg} deg measured {slope}");
+        } else {
+            // Growth stops at the foot of the ramp, where the robot would
+            // stand on it.
+            assert_eq!(c, None, "{deg} deg");
+            let steep = t
+                .nodes()
+                .iter()
+                .filter(|n| n.class == TravClass::Obstacle && n.slope_deg as f64 > 25.0)
+                .count();
+            assert!(steep > 0, "no node measured steep");
+        }
+    }
+}
+
+#[test]
+fn a_step_higher_than_the_robot_climbs_stops_it() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 2.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (2.0, 4.0), (0.0, 4.0), |_, _| 0.3);
+    let t = build(&m, [1.0, 2.0, 0.0]);
+    // The upper floor is not reached; the ground within the footprint
+    // radius (0.4 m) of the ledge is an obstacle (the step lies under the
+    // robot) and ends the growth; the ground farther away is not.
+    assert_eq!(class_at(&t, 3.0, 2.0, 0.3), None);
+    assert_eq!(class_at(&t, 1.95, 2.0, 0.0), None);
+    assert_eq!(class_at(&t, 1.65, 2.0, 0.0), Some(TravClass::Obstacle));
+    assert_eq!(class_at(&t, 1.55, 2.0, 0.0), Some(TravClass::Traversable));
+    // A 5 cm step is climbed.
+    let mut m = mls();
+    surface(&mut m, (0.0, 2.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (2.0, 4.0), (0.0, 4.0), |_, _| 0.05);
+    let t = build(&m, [1.0, 2.0, 0.0]);
+    assert!(class_at(&t, 3.0, 2.0, 0.05).is_some_and(TravClass::is_drivable));
+}
+
+#[test]
+fn a_rock_marks_obstacles_only_where_the_body_cannot_avoid_it() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 6.0), (0.0, 6.0), |_, _| 0.0);
+    // A 0.4 m rock, 0.2 m on a side, centred at (3, 3).
+    block(&mut m, (2.9, 3.1), (2.9, 3.1), (0.05, 0.4));
+    let t = build(&m, [1.0, 1.0, 0.0]);
+    assert_eq!(class_at(&t, 3.0, 3.3, 0.0), Some(TravClass::Obstacle));
+    // Beyond the inscribed radius (0.3 m) from the rock's edge.
+    assert_eq!(class_at(&t, 3.0, 3.5, 0.0), Some(TravClass::Traversable));
+    assert_eq!(class_at(&t, 1.0, 1.0, 0.0), Some(TravClass::Traversable));
+    // A low ceiling is an obstacle too; a high one is not.
+    let mut m = mls();
+    surface(&mut m, (0.0, 6.0), (0.0, 6.0), |_, _| 0.0);
+    surface(&mut m, (2.0, 4.0), (0.0, 6.0), |_, _| 0.5);
+    surface(&mut m, (4.0, 6.0), (0.0, 6.0), |_, _| 1.5);
+    let t = build(&m, [1.0, 3.0, 0.0]);
+    assert_eq!(class_at(&t, 1.0, 3.0, 0.0), Some(TravClass::Traversable));
+    assert_eq!(
+        class_at(&t, 3.0, 3.0, 0.0),
+        None,
+        "the roof at 0.5 m blocks"
+    );
+}
+
+#[test]
+fn sparse_data_is_unknown_and_its_drivable_neighbours_explorable() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 3.0), (0.0, 3.0), |_, _| 0.0);
+    // A one-cell-wide ridge at y = 1.5..1.6 across a pit 0.8 m deep: on
+    // the ridge alone the support points are collinear, no plane.
+    surface(&mut m, (3.0, 5.0), (0.0, 1.5), |_, _| -0.8);
+    surface(&mut m, (3.0, 5.0), (1.6, 3.0), |_, _| -0.8);
+    surface(&mut m, (3.0, 5.0), (1.5, 1.6), |_, _| 0.0);
+    let t = build(&m, [1.5, 1.5, 0.0]);
+    // Within 0.4 m of the floor the ridge is carried by it.
+    assert_eq!(class_at(&t, 3.15, 1.55, 0.0), Some(TravClass::Traversable));
+    assert_eq!(class_at(&t, 3.25, 1.55, 0.0), Some(TravClass::Explorable));
+    assert_eq!(class_at(&t, 3.35, 1.55, 0.0), Some(TravClass::Unknown));
+    assert_eq!(
+        class_at(&t, 3.45, 1.55, 0.0),
+        None,
+        "unknown ends the growth"
+    );
+    // The pit is seen: the floor by it is no frontier; the outer edges are.
+    assert_eq!(class_at(&t, 2.95, 0.55, 0.0), Some(TravClass::Traversable));
+    assert_eq!(class_at(&t, 0.05, 0.55, 0.0), Some(TravClass::Frontier));
+    let s = t.stats();
+    assert_eq!((s.unknown, s.explorable), (1, 1), "{s:?}");
+}
+
+#[test]
+fn two_levels_over_each_other_stay_apart_unless_a_ramp_joins_them() {
+    let mut m = mls();
+    // Ground floor and a deck 2.5 m above over the same cells.
+    surface(&mut m, (0.0, 6.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (0.0, 6.0), (0.0, 4.0), |_, _| 2.5);
+    let low = build(&m, [3.0, 2.0, 0.0]);
+    let high = build(&m, [3.0, 2.0, 2.5]);
+    assert_eq!(low.stats().nodes, 2400);
+    assert_eq!(high.stats().nodes, 2400);
+    assert!(low.nodes().iter().all(|n| n.patch_z.abs() < 0.01));
+    assert!(high.nodes().iter().all(|n| (n.patch_z - 2.5).abs() < 0.01));
+    assert_eq!(class_at(&low, 3.0, 2.0, 0.0), Some(TravClass::Traversable));
+    // A 14-degree ramp from the ground at x = 6 up to the deck's level at
+    // x = 16, and the deck extended to meet it: one graph, two nodes in
+    // each cell under the deck.
+    let k = 0.25;
+    surface(&mut m, (6.0, 16.0), (0.0, 4.0), |x, _| k * (x - 6.0));
+    surface(&mut m, (16.0, 18.0), (0.0, 4.0), |_, _| 2.5);
+    surface(&mut m, (6.0, 18.0), (4.0, 6.0), |_, _| 2.5);
+    surface(&mut m, (0.0, 6.0), (4.0, 6.0), |_, _| 2.5);
+    let both = build(&m, [3.0, 2.0, 0.0]);
+    let under = both.nodes_in_cell(30, 20).count();
+    assert_eq!(under, 2, "ground and deck in cell (30, 20)");
+    assert!(class_at(&both, 3.0, 2.0, 2.5).is_some());
+}
+
+#[test]
+fn the_same_map_gives_the_same_graph_and_a_full_graph_says_so() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 4.0), (0.0, 4.0), |x, y| {
+        0.05 * (x * 3.0).sin() + 0.03 * y
+    });
+    block(&mut m, (1.0, 1.2), (1.0, 1.2), (0.0, 0.5));
+    let a = build(&m, [3.0, 3.0, 0.09]);
+    let b = build(&m, [3.0, 3.0, 0.09]);
+    assert_eq!(a.nodes(), b.nodes());
+    let mut small = TravMap::new(TravParams {
+        max_nodes: 100,
+        ..TravParams::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let s = small
+        .build(&m, [3.0, 3.0, 0.09])
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(s.full && s.nodes == 100, "{s:?}");
+    assert!(
+        small.build(&m, [30.0, 3.0, 0.0]).is_err(),
+        "no ground at the start"
+    );
+}
