@@ -60,6 +60,24 @@ pub enum Command {
     /// .cfg and .mprim files, point robot): prints the first solution's and
     /// the optimal solution's times, costs and expansions.
     Plan(PlanArgs),
+    /// Write the rover's motion primitives (splines, forward and backward,
+    /// no point turns) as an SBPL .mprim file.
+    Primitives(PrimitivesArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct PrimitivesArgs {
+    #[arg(long, value_name = "OUT.mprim")]
+    pub out: PathBuf,
+    /// Cell size, m.
+    #[arg(long, default_value_t = 0.1)]
+    pub resolution: f64,
+    /// Heading bins.
+    #[arg(long, default_value_t = 16)]
+    pub angles: u32,
+    /// Tightest turn, m.
+    #[arg(long, default_value_t = 0.5)]
+    pub min_turn_radius: f64,
 }
 
 #[derive(Args, Debug)]
@@ -323,6 +341,7 @@ pub fn main() -> ExitCode {
         Command::G2o(a) => modes::g2o(a),
         Command::Register(a) => modes::register(a),
         Command::Plan(a) => modes::plan(a),
+        Command::Primitives(a) => modes::primitives(a),
         Command::Mesh(a) => modes::mesh(a, progress),
     };
     match result {

@@ -677,6 +677,31 @@ pub fn plan(a: crate::cli::PlanArgs) -> Result<ExitCode, Error> {
     })
 }
 
+pub fn primitives(a: crate::cli::PrimitivesArgs) -> Result<ExitCode, Error> {
+    use speleo_planner::primitives::{generate, to_mprim_text, PrimitiveSpec};
+    let ok = |v: f64| v > 0.0 && v.is_finite();
+    if !ok(a.resolution) || !ok(a.min_turn_radius) || !(1..=1024).contains(&a.angles) {
+        return Err(
+            "--resolution and --min-turn-radius must be positive, --angles 1..=1024".into(),
+        );
+    }
+    let f = generate(&PrimitiveSpec {
+        resolution_m: a.resolution,
+        angles: a.angles,
+        min_turn_radius_m: a.min_turn_radius,
+        ..PrimitiveSpec::default()
+    });
+    std::fs::write(&a.out, to_mprim_text(&f))
+        .map_err(|e| format!("cannot write {}: {e}", a.out.display()))?;
+    println!(
+        "{} primitives ({} headings) written to {}",
+        f.primitives.len(),
+        f.angles,
+        a.out.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 pub fn register(a: RegisterArgs) -> Result<ExitCode, Error> {
     let r = crate::tools::register::register(&a.source, &a.target, a.init.as_deref(), a.voxel)?;
     println!("{r}");

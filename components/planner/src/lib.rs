@@ -16,6 +16,7 @@
 pub mod arastar;
 pub mod heuristic;
 pub mod mprim;
+pub mod primitives;
 pub mod sbpl;
 
 pub use arastar::{AraParams, AraStar, Lattice, Progress};

@@ -29,6 +29,8 @@ pub enum SbplError {
     Resolution { expected: f64, found: f64 },
     #[error("the primitives have {found} headings, the environment {expected}")]
     Angles { expected: u32, found: u32 },
+    #[error("{cells} cells x {angles} headings is more states than the planner numbers")]
+    TooManyStates { cells: usize, angles: u32 },
     #[error("the {which} pose ({x}, {y}) is outside the grid or in an obstacle")]
     BadEndpoint { which: &'static str, x: i32, y: i32 },
 }
@@ -54,6 +56,8 @@ pub struct SbplEnv {
 
 /// Largest grid accepted (cells).
 const MAX_CELLS: usize = 1 << 26;
+/// Largest cell offset an action may reach (beyond every grid).
+const MAX_OFFSET: i32 = 1 << 24;
 
 /// Parse an environment `.cfg` file.
 pub fn parse_env(text: &str) -> Result<SbplEnv, SbplError> {
@@ -223,7 +227,11 @@ impl SbplLattice {
         for (i, p) in prims.primitives.iter().enumerate() {
             let mut cells: Vec<(i32, i32)> = Vec::new();
             for q in &p.poses {
-                let c = (cont_to_disc(q[0] + half, cs), cont_to_disc(q[1] + half, cs));
+                // Clamped far beyond any grid, so offsets never overflow.
+                let c = (
+                    cont_to_disc(q[0] + half, cs).clamp(-MAX_OFFSET, MAX_OFFSET),
+                    cont_to_disc(q[1] + half, cs).clamp(-MAX_OFFSET, MAX_OFFSET),
+                );
                 if cells.last() != Some(&c) {
                     cells.push(c);
                 }
@@ -240,7 +248,9 @@ impl SbplLattice {
             let linear = length_m / env.nominalvel_mps;
             let turn = min_angle_diff(bin(p.end[2] as i64), bin(p.start_angle as i64));
             let angular = turn / (std::f64::consts::FRAC_PI_4 / env.time_to_turn_45_s);
-            let base = (1000.0 * linear.max(angular)).ceil() as u64 * p.cost_mult as u64;
+            // Saturating: absurd poses give an absurd cost, never a wrap.
+            let base =
+                ((1000.0 * linear.max(angular)).ceil() as u64).saturating_mul(p.cost_mult as u64);
             actions[p.start_angle as usize].push(Action {
                 dx: p.end[0],
                 dy: p.end[1],

@@ -35,6 +35,8 @@ pub struct PlanReport {
     /// Time to read the files and build the lattice, and to compute the
     /// heuristic (included in `setup_s`).
     pub setup_s: f64,
+    /// The heuristic's estimate at the start (a lower bound on the cost).
+    pub heuristic_at_start: u32,
     pub rounds: Vec<Round>,
     pub first_solution_s: Option<f64>,
     pub optimal_s: Option<f64>,
@@ -50,8 +52,13 @@ impl fmt::Display for PlanReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{} x {} cells, {} headings, {} primitives; setup {:.3} s",
-            self.cells[0], self.cells[1], self.headings, self.primitives, self.setup_s
+            "{} x {} cells, {} headings, {} primitives; setup {:.3} s; heuristic at the start {}",
+            self.cells[0],
+            self.cells[1],
+            self.headings,
+            self.primitives,
+            self.setup_s,
+            self.heuristic_at_start
         )?;
         for r in &self.rounds {
             writeln!(
@@ -132,6 +139,7 @@ pub fn plan_sbpl(a: &PlanArgs) -> Result<PlanReport, Error> {
         start_cell: cell(lat.start),
         goal_cell: cell(lat.goal),
         setup_s,
+        heuristic_at_start: lat.heuristic(lat.start_state()),
         first_solution_s: rounds.first().map(|r| r.time_s),
         optimal_s: optimal.map(|o| o.1),
         expansions: search.stats().expansions,
