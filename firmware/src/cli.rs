@@ -82,12 +82,31 @@ pub struct PrimitivesArgs {
 
 #[derive(Args, Debug)]
 pub struct PlanArgs {
-    /// SBPL environment (EnvironmentNAVXYTHETALAT .cfg).
-    #[arg(long, value_name = "ENV.cfg")]
-    pub sbpl_env: PathBuf,
-    /// SBPL motion primitives.
-    #[arg(long, value_name = "FILE.mprim")]
-    pub mprim: PathBuf,
+    /// SBPL environment (EnvironmentNAVXYTHETALAT .cfg), with --mprim.
+    #[arg(
+        long,
+        value_name = "ENV.cfg",
+        required_unless_present = "world",
+        conflicts_with = "world"
+    )]
+    pub sbpl_env: Option<PathBuf>,
+    /// Or a world (lava-tube, garage, flat, or a mesh file): the maps are
+    /// built from its ground-truth surface.
+    #[arg(long, value_name = "NAME|MESH", requires_all = ["start", "goal"])]
+    pub world: Option<String>,
+    /// Seed of a generated world.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Start and goal in the world: a waypoint (`speleo world waypoints`)
+    /// or x,y,z,yaw (m, degrees).
+    #[arg(long, value_name = "NAME|x,y,z,yaw")]
+    pub start: Option<String>,
+    #[arg(long, value_name = "NAME|x,y,z,yaw")]
+    pub goal: Option<String>,
+    /// Motion primitives (SBPL .mprim); with --world, the rover's own set
+    /// when absent.
+    #[arg(long, value_name = "FILE.mprim", required_unless_present = "world")]
+    pub mprim: Option<PathBuf>,
     /// Inflation of the first search; it falls by --eps-step to 1.
     #[arg(long, default_value_t = 3.0)]
     pub eps: f64,
@@ -175,6 +194,18 @@ pub enum WorldCommand {
     /// `surface` property: 0 rock, 1 mud, 2 boulder, 3 concrete) and print its
     /// size, reachable floor area and start pose.
     Export(WorldExportArgs),
+    /// Print a world's named poses (start, entrance, every 10 m along the
+    /// route, one per level) for `speleo plan --start/--goal`.
+    Waypoints(WorldWaypointsArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct WorldWaypointsArgs {
+    /// lava-tube, garage, flat, or a .ply/.obj/.stl file.
+    #[arg(value_name = "NAME|MESH")]
+    pub world: String,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
 }
 
 #[derive(Args, Debug)]
@@ -338,6 +369,7 @@ pub fn main() -> ExitCode {
         Command::Pcap2mcap(a) => modes::pcap2mcap(a),
         Command::Decode(d) => modes::decode(d),
         Command::World(WorldCommand::Export(a)) => modes::world_export(a),
+        Command::World(WorldCommand::Waypoints(a)) => modes::world_waypoints(a),
         Command::G2o(a) => modes::g2o(a),
         Command::Register(a) => modes::register(a),
         Command::Plan(a) => modes::plan(a),

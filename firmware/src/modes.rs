@@ -665,16 +665,52 @@ pub fn g2o(a: G2oArgs) -> Result<ExitCode, Error> {
 }
 
 pub fn plan(a: crate::cli::PlanArgs) -> Result<ExitCode, Error> {
-    let r = crate::tools::plan::plan_sbpl(&a)?;
-    println!("{r}");
-    if let Some(path) = &a.report {
-        report::write_json(path, &r)?;
-    }
-    Ok(if r.cost.is_some() {
+    let planned = if let Some(world) = &a.world {
+        let (Some(start), Some(goal)) = (&a.start, &a.goal) else {
+            return Err("--world needs --start and --goal".into());
+        };
+        let r = crate::tools::plan_world::plan_world(&crate::tools::plan_world::WorldPlanArgs {
+            world,
+            seed: a.seed,
+            start,
+            goal,
+            mprim: a.mprim.as_deref(),
+            eps: a.eps,
+            eps_step: a.eps_step,
+            quantum: a.quantum,
+        })?;
+        println!("{r}");
+        if let Some(path) = &a.report {
+            report::write_json(path, &r)?;
+        }
+        r.cost_ms.is_some()
+    } else {
+        let r = crate::tools::plan::plan_sbpl(&a)?;
+        println!("{r}");
+        if let Some(path) = &a.report {
+            report::write_json(path, &r)?;
+        }
+        r.cost.is_some()
+    };
+    Ok(if planned {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
     })
+}
+
+pub fn world_waypoints(a: crate::cli::WorldWaypointsArgs) -> Result<ExitCode, Error> {
+    let w = speleo_hal::world::World::build(&a.world, a.seed)?;
+    for (name, p) in crate::tools::plan_world::waypoints(&w) {
+        println!(
+            "{name:10} {:8.2} {:8.2} {:7.2} {:7.1}",
+            p[0],
+            p[1],
+            p[2],
+            p[3].to_degrees()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 pub fn primitives(a: crate::cli::PrimitivesArgs) -> Result<ExitCode, Error> {

@@ -18,6 +18,7 @@ pub mod heuristic;
 pub mod mprim;
 pub mod primitives;
 pub mod sbpl;
+pub mod surface;
 
 pub use arastar::{AraParams, AraStar, Lattice, Progress};
 

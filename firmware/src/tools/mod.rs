@@ -8,6 +8,7 @@ pub mod g2o;
 pub mod mesh;
 pub mod pcap2mcap;
 pub mod plan;
+pub mod plan_world;
 pub mod register;
 
 pub type Error = Box<dyn std::error::Error>;

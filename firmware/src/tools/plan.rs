@@ -85,10 +85,12 @@ pub fn plan_sbpl(a: &PlanArgs) -> Result<PlanReport, Error> {
     let read = |p: &std::path::Path| {
         std::fs::read_to_string(p).map_err(|e| format!("cannot read {}: {e}", p.display()))
     };
-    let env =
-        parse_env(&read(&a.sbpl_env)?).map_err(|e| format!("{}: {e}", a.sbpl_env.display()))?;
+    let (Some(env_path), Some(mprim_path)) = (&a.sbpl_env, &a.mprim) else {
+        return Err("--sbpl-env needs --mprim".into());
+    };
+    let env = parse_env(&read(env_path)?).map_err(|e| format!("{}: {e}", env_path.display()))?;
     let prims =
-        mprim::parse(&read(&a.mprim)?).map_err(|e| format!("{}: {e}", a.mprim.display()))?;
+        mprim::parse(&read(mprim_path)?).map_err(|e| format!("{}: {e}", mprim_path.display()))?;
     let lat = SbplLattice::new(env, &prims)?;
     let setup_s = started.elapsed().as_secs_f64();
     let mut search = AraStar::new(lat.state_count(), lat.max_actions());
@@ -131,8 +133,8 @@ pub fn plan_sbpl(a: &PlanArgs) -> Result<PlanReport, Error> {
     search.path(&mut states);
     let cell = |(x, y, t): (i32, i32, u32)| [x as i64, y as i64, t as i64];
     Ok(PlanReport {
-        env: a.sbpl_env.display().to_string(),
-        mprim: a.mprim.display().to_string(),
+        env: env_path.display().to_string(),
+        mprim: mprim_path.display().to_string(),
         cells: [lat.env.width, lat.env.height],
         headings: lat.env.angles,
         primitives: prims.primitives.len(),

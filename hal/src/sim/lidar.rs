@@ -85,16 +85,32 @@ impl LidarWorld {
     /// Distance along the unit direction `dir` to the first surface within
     /// `max`, with the cosine of the incidence angle and the surface.
     pub fn cast(&self, origin: [f64; 3], dir: [f64; 3], max: f64) -> Option<(f64, f64, Surface)> {
+        let (toi, t) = self.hit(origin, dir, max)?;
+        let cos = self.facing(t, dir).abs();
+        let surface = self.surfaces.get(t).copied().unwrap_or_default();
+        Some((toi, cos, surface))
+    }
+
+    /// Distance to the first surface along `dir` within `max`, and the
+    /// cosine between that face's normal and `dir`: positive when the ray
+    /// meets the back of the face (it started inside a solid).
+    pub fn cast_signed(&self, origin: [f64; 3], dir: [f64; 3], max: f64) -> Option<(f64, f64)> {
+        let (toi, t) = self.hit(origin, dir, max)?;
+        Some((toi, self.facing(t, dir)))
+    }
+
+    fn hit(&self, origin: [f64; 3], dir: [f64; 3], max: f64) -> Option<(f64, usize)> {
         let ray = Ray::new(
             Vec3::new(origin[0] as f32, origin[1] as f32, origin[2] as f32),
             Vec3::new(dir[0] as f32, dir[1] as f32, dir[2] as f32),
         );
         let (tri, toi) = CompositeShapeRef(&self.mesh).cast_local_ray(&ray, max as f32, false)?;
-        let t = tri as usize % self.normals.len().max(1);
+        Some((toi as f64, tri as usize % self.normals.len().max(1)))
+    }
+
+    fn facing(&self, t: usize, dir: [f64; 3]) -> f64 {
         let n = self.normals.get(t).copied().unwrap_or([0.0, 0.0, 1.0]);
-        let cos = (n[0] as f64 * dir[0] + n[1] as f64 * dir[1] + n[2] as f64 * dir[2]).abs();
-        let surface = self.surfaces.get(t).copied().unwrap_or_default();
-        Some((toi as f64, cos, surface))
+        n[0] as f64 * dir[0] + n[1] as f64 * dir[1] + n[2] as f64 * dir[2]
     }
 }
 

@@ -1,0 +1,454 @@
+//! The multi-level lattice: states are (traversability node, heading), so
+//! `z` comes from the patch the rover stands on and levels over each other
+//! are different states.
+//!
+//! A primitive is projected on the surface by walking the traversability
+//! graph: its poses' cells follow each other as 8-neighbour moves, and
+//! each move takes the node's link in that direction, so the path stays on
+//! its level, climbs ramps and is refused where the link is missing (a
+//! wall, a step, unknown ground) or the node is not drivable. The body's
+//! footprint (the rectangle at every intermediate pose, precomputed per
+//! primitive as cell offsets) must stand over nodes of the same level with
+//! nothing in the body's height band above them; where every node of the
+//! path has room for the body's circumscribed circle (precomputed per
+//! node), the rectangle is not looked at.
+//!
+//! Cost: travel time in milliseconds, the larger of the primitive's length
+//! on the surface over the forward or backward speed and its heading change
+//! over the turning speed, times the primitive's multiplier. Heuristic:
+//! travel time at the forward speed over the traversability graph
+//! (Dijkstra from the goal node), scaled by the smallest ratio of straight
+//! to 8-neighbour length so that it never overestimates.
+
+use std::cell::RefCell;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use speleo_mapping::mls::MlsMap;
+use speleo_traversability::{TravMap, NONE};
+
+use crate::mprim::MprimFile;
+use crate::{Lattice, INFINITE_COST};
+
+/// Speeds and body of the rover.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceParams {
+    pub forward_speed_mps: f64,
+    pub backward_speed_mps: f64,
+    pub turn_speed_rad_s: f64,
+    /// The body's rectangle (along and across the heading).
+    pub body_length_m: f64,
+    pub body_width_m: f64,
+}
+
+impl Default for SurfaceParams {
+    fn default() -> Self {
+        SurfaceParams {
+            forward_speed_mps: 0.3,
+            backward_speed_mps: 0.15,
+            turn_speed_rad_s: 0.5,
+            body_length_m: 0.9,
+            body_width_m: 0.7,
+        }
+    }
+}
+
+/// The 8 neighbour moves in `speleo_traversability::map::NEIGHBOURS`
+/// order.
+const MOVES: [(i32, i32); 8] = speleo_traversability::map::NEIGHBOURS;
+
+/// A primitive as the surface lattice uses it.
+#[derive(Clone, Debug)]
+struct SurfaceAction {
+    end_theta: u32,
+    /// Neighbour directions from cell to cell along the poses.
+    steps: Vec<u8>,
+    /// Cells the body covers, relative to the start cell, each with the
+    /// index (in `steps`, 0 = the start) of the path cell nearest it.
+    footprint: Vec<(i32, i32, u16)>,
+    length_m: f64,
+    turn_rad: f64,
+    backward: bool,
+    cost_mult: u32,
+}
+
+/// The lattice over a traversability map; see the module documentation.
+pub struct SurfaceLattice<'a> {
+    trav: &'a TravMap,
+    angles: u32,
+    p: SurfaceParams,
+    actions: Vec<Vec<SurfaceAction>>,
+    /// Per node: nothing in the body's height band over its ground.
+    body_free: Vec<bool>,
+    /// Per node: every cell within the body's circumscribed circle (and a
+    /// cell's margin) has a body-free node at this level, so the body fits
+    /// here in any orientation and the oriented check can be skipped.
+    clear: Vec<bool>,
+    heuristic: Vec<u32>,
+    /// First node of each cell of the nodes' bounding box, for O(1) cell
+    /// look-ups; `origin` is its lowest cell.
+    grid: Vec<u32>,
+    origin: (i32, i32),
+    dims: (usize, usize),
+    /// Next node in the same cell.
+    next_in_cell: Vec<u32>,
+    goal: (u32, u32),
+    /// Scratch: the nodes an action's path visits.
+    path: RefCell<Vec<u32>>,
+}
+
+fn direction(dx: i32, dy: i32) -> Option<u8> {
+    MOVES.iter().position(|&m| m == (dx, dy)).map(|k| k as u8)
+}
+
+impl<'a> SurfaceLattice<'a> {
+    /// The lattice for a query to node `goal` at heading bin `goal_theta`.
+    /// `prims` must be at the map's resolution.
+    pub fn new(
+        trav: &'a TravMap,
+        mls: &MlsMap,
+        prims: &MprimFile,
+        p: SurfaceParams,
+        goal: (u32, u32),
+    ) -> Result<Self, String> {
+        let res = trav.resolution();
+        if (prims.resolution_m - res).abs() > 1e-6 * res {
+            return Err(format!(
+                "the primitives are for {} m cells, the map has {res} m",
+                prims.resolution_m
+            ));
+        }
+        let n = trav.nodes().len();
+        if n.saturating_mul(prims.angles as usize) >= u32::MAX as usize {
+            return Err("too many states".into());
+        }
+        let mut actions = vec![Vec::new(); prims.angles as usize];
+        for prim in &prims.primitives {
+            if let Some(a) = surface_action(prim, prims.angles, res, &p) {
+                actions[prim.start_angle as usize].push(a);
+            }
+        }
+        // The cell grid over the nodes' bounding box.
+        let (mut x0, mut y0, mut x1, mut y1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
+        for nd in trav.nodes() {
+            x0 = x0.min(nd.ix);
+            y0 = y0.min(nd.iy);
+            x1 = x1.max(nd.ix);
+            y1 = y1.max(nd.iy);
+        }
+        let dims = if n == 0 {
+            (0, 0)
+        } else {
+            ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize)
+        };
+        let mut grid = vec![NONE; dims.0 * dims.1];
+        let mut next_in_cell = vec![NONE; n];
+        for (i, nd) in trav.nodes().iter().enumerate() {
+            let c = (nd.iy - y0) as usize * dims.0 + (nd.ix - x0) as usize;
+            next_in_cell[i] = grid[c];
+            grid[c] = i as u32;
+        }
+        let tp = trav.params();
+        let body_free = trav
+            .nodes()
+            .iter()
+            .map(|nd| {
+                let (lo, hi) = (
+                    nd.ground_z + tp.ground_clearance_m,
+                    nd.ground_z + tp.robot_height_m,
+                );
+                !mls.cell(nd.ix, nd.iy)
+                    .iter()
+                    .any(|q| q.max >= lo && q.min <= hi)
+            })
+            .collect();
+        let mut l = SurfaceLattice {
+            trav,
+            angles: prims.angles,
+            p,
+            actions,
+            body_free,
+            clear: Vec::new(),
+            heuristic: Vec::new(),
+            grid,
+            origin: (x0, y0),
+            dims,
+            next_in_cell,
+            goal,
+            path: RefCell::new(Vec::with_capacity(256)),
+        };
+        l.heuristic = l.cost_to_go(goal.0);
+        l.clear = l.clearances();
+        Ok(l)
+    }
+
+    pub fn state(&self, node: u32, theta: u32) -> u32 {
+        node * self.angles + theta
+    }
+
+    pub fn decode(&self, s: u32) -> (u32, u32) {
+        (s / self.angles, s % self.angles)
+    }
+
+    pub fn goal_state(&self) -> u32 {
+        self.state(self.goal.0, self.goal.1)
+    }
+
+    pub fn max_actions(&self) -> usize {
+        self.actions.iter().map(Vec::len).max().unwrap_or(0)
+    }
+
+    /// Primitives kept per heading.
+    pub fn action_count(&self) -> usize {
+        self.actions.iter().map(Vec::len).sum()
+    }
+
+    /// The node of cell `(ix, iy)` whose ground is nearest `z` within `tol`.
+    fn node_near(&self, ix: i32, iy: i32, z: f32, tol: f32) -> Option<u32> {
+        let (gx, gy) = (ix - self.origin.0, iy - self.origin.1);
+        if gx < 0 || gy < 0 || gx as usize >= self.dims.0 || gy as usize >= self.dims.1 {
+            return None;
+        }
+        let mut i = self.grid[gy as usize * self.dims.0 + gx as usize];
+        let mut best = None;
+        let mut best_d = tol;
+        while i != NONE {
+            let d = (self.trav.nodes()[i as usize].ground_z - z).abs();
+            if d <= best_d {
+                best_d = d;
+                best = Some(i);
+            }
+            i = self.next_in_cell[i as usize];
+        }
+        best
+    }
+
+    /// Which nodes have room for the body in every orientation.
+    fn clearances(&self) -> Vec<bool> {
+        let res = self.trav.resolution();
+        let radius = (self.p.body_length_m / 2.0).hypot(self.p.body_width_m / 2.0)
+            + res * std::f64::consts::SQRT_2;
+        let reach = (radius / res).ceil() as i32;
+        let r2 = (radius / res).powi(2);
+        let tol = self.trav.params().max_step_m * 2.0;
+        self.trav
+            .nodes()
+            .iter()
+            .enumerate()
+            .map(|(i, nd)| {
+                self.body_free[i]
+                    && (-reach..=reach).all(|dy| {
+                        (-reach..=reach).all(|dx| {
+                            ((dx * dx + dy * dy) as f64) > r2
+                                || self
+                                    .node_near(nd.ix + dx, nd.iy + dy, nd.ground_z, tol)
+                                    .is_some_and(|j| self.body_free[j as usize])
+                        })
+                    })
+            })
+            .collect()
+    }
+
+    /// Travel time to the goal node over the graph, ms (admissible).
+    fn cost_to_go(&self, goal: u32) -> Vec<u32> {
+        let nodes = self.trav.nodes();
+        let mut h = vec![INFINITE_COST; nodes.len()];
+        if goal as usize >= nodes.len() {
+            return h;
+        }
+        // Straight over 8-neighbour length is at least 1 / 1.0824.
+        let scale = 1000.0 / self.p.forward_speed_mps / 1.0824;
+        let res = self.trav.resolution();
+        h[goal as usize] = 0;
+        let mut open = BinaryHeap::new();
+        open.push(Reverse((0u32, goal)));
+        while let Some(Reverse((d, i))) = open.pop() {
+            if d > h[i as usize] {
+                continue;
+            }
+            let a = &nodes[i as usize];
+            for (k, &j) in a.neighbours.iter().enumerate() {
+                if j == NONE {
+                    continue;
+                }
+                let b = &nodes[j as usize];
+                if !b.class.is_drivable() {
+                    continue;
+                }
+                let xy = if k % 2 == 0 {
+                    res
+                } else {
+                    res * std::f64::consts::SQRT_2
+                };
+                let dz = (a.ground_z - b.ground_z) as f64;
+                let c = ((xy * xy + dz * dz).sqrt() * scale).floor() as u32;
+                let nd = d.saturating_add(c);
+                if nd < h[j as usize] {
+                    h[j as usize] = nd;
+                    open.push(Reverse((nd, j)));
+                }
+            }
+        }
+        h
+    }
+
+    /// The cost of action `a` from node `n`, and the node it ends on.
+    fn apply(&self, n: u32, a: &SurfaceAction, path: &mut Vec<u32>) -> Option<(u32, u32)> {
+        let nodes = self.trav.nodes();
+        path.clear();
+        path.push(n);
+        let mut cur = n;
+        let mut all_clear = self.clear[n as usize];
+        let mut length_3d = 0.0;
+        let mut length_xy = 0.0;
+        let res = self.trav.resolution();
+        for &k in &a.steps {
+            let next = nodes[cur as usize].neighbours[k as usize];
+            if next == NONE {
+                return None;
+            }
+            let b = &nodes[next as usize];
+            if !b.class.is_drivable() || !self.body_free[next as usize] {
+                return None;
+            }
+            let xy = if k % 2 == 0 {
+                res
+            } else {
+                res * std::f64::consts::SQRT_2
+            };
+            let dz = (b.ground_z - nodes[cur as usize].ground_z) as f64;
+            length_xy += xy;
+            length_3d += (xy * xy + dz * dz).sqrt();
+            cur = next;
+            all_clear &= self.clear[cur as usize];
+            path.push(cur);
+        }
+        // The body over the level of the nearest path node (where some
+        // pose has less room than the body's circle).
+        let start = &nodes[n as usize];
+        let tol = self.trav.params().max_step_m * 2.0;
+        let oriented = if all_clear { &[][..] } else { &a.footprint[..] };
+        for &(ox, oy, k) in oriented {
+            let z = nodes[path[(k as usize).min(path.len() - 1)] as usize].ground_z;
+            match self.node_near(start.ix + ox, start.iy + oy, z, tol) {
+                Some(j) if self.body_free[j as usize] => {}
+                _ => return None,
+            }
+        }
+        let slope_factor = if length_xy > 0.0 {
+            length_3d / length_xy
+        } else {
+            1.0
+        };
+        let speed = if a.backward {
+            self.p.backward_speed_mps
+        } else {
+            self.p.forward_speed_mps
+        };
+        let linear = a.length_m * slope_factor / speed;
+        let turn = a.turn_rad / self.p.turn_speed_rad_s;
+        let ms = (1000.0 * linear.max(turn)).ceil() as u64 * a.cost_mult as u64;
+        Some((cur, ms.min(INFINITE_COST as u64 - 1) as u32))
+    }
+
+    /// The ground positions along the path of states (for reports).
+    pub fn path_positions(&self, states: &[u32]) -> Vec<[f64; 3]> {
+        states
+            .iter()
+            .filter_map(|&s| self.trav.node(self.decode(s).0))
+            .map(|nd| self.trav.position(nd))
+            .collect()
+    }
+}
+
+/// The surface form of a primitive: its cell moves and body footprint.
+fn surface_action(
+    prim: &crate::mprim::MotionPrimitive,
+    angles: u32,
+    res: f64,
+    p: &SurfaceParams,
+) -> Option<SurfaceAction> {
+    let cell = |x: f64, y: f64| {
+        (
+            ((x + res / 2.0) / res).floor() as i32,
+            ((y + res / 2.0) / res).floor() as i32,
+        )
+    };
+    let mut cells = vec![(0, 0)];
+    let mut steps = Vec::new();
+    for q in &prim.poses {
+        let c = cell(q[0], q[1]);
+        let last = cells[cells.len() - 1];
+        if c != last {
+            steps.push(direction(c.0 - last.0, c.1 - last.1)?);
+            cells.push(c);
+        }
+    }
+    // The body's rectangle at every pose, sampled at a quarter cell.
+    let mut footprint: Vec<(i32, i32, u16)> = Vec::new();
+    let (hl, hw) = (p.body_length_m / 2.0, p.body_width_m / 2.0);
+    let s = res / 4.0;
+    for q in &prim.poses {
+        let (c, sn) = (q[2].cos(), q[2].sin());
+        let mut u = -hl;
+        while u <= hl + 1e-9 {
+            let mut v = -hw;
+            while v <= hw + 1e-9 {
+                let (x, y) = (q[0] + u * c - v * sn, q[1] + u * sn + v * c);
+                let (ix, iy) = cell(x, y);
+                if !footprint.iter().any(|f| (f.0, f.1) == (ix, iy)) {
+                    let k = cells
+                        .iter()
+                        .enumerate()
+                        .min_by_key(|(_, cc)| (cc.0 - ix).pow(2) + (cc.1 - iy).pow(2))
+                        .map_or(0, |(k, _)| k);
+                    footprint.push((ix, iy, k as u16));
+                }
+                v += s;
+            }
+            u += s;
+        }
+    }
+    footprint.sort_unstable();
+    let length_m = prim
+        .poses
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    let bin = std::f64::consts::TAU / angles as f64;
+    let d = (prim.end[2] - prim.start_angle as i32).rem_euclid(angles as i32);
+    let turn_bins = d.min(angles as i32 - d);
+    let first = prim.poses[0];
+    let last = prim.poses[prim.poses.len() - 1];
+    let backward = (last[0] * first[2].cos() + last[1] * first[2].sin()) < 0.0;
+    Some(SurfaceAction {
+        end_theta: prim.end[2].rem_euclid(angles as i32) as u32,
+        steps,
+        footprint,
+        length_m,
+        turn_rad: turn_bins as f64 * bin,
+        backward,
+        cost_mult: prim.cost_mult,
+    })
+}
+
+impl Lattice for SurfaceLattice<'_> {
+    fn state_count(&self) -> usize {
+        self.trav.nodes().len() * self.angles as usize
+    }
+
+    fn heuristic(&self, s: u32) -> u32 {
+        self.heuristic[self.decode(s).0 as usize]
+    }
+
+    fn successors(&self, s: u32, out: &mut Vec<(u32, u32)>) {
+        out.clear();
+        let (n, th) = self.decode(s);
+        let mut path = self.path.borrow_mut();
+        for a in &self.actions[th as usize] {
+            if let Some((end, cost)) = self.apply(n, a, &mut path) {
+                out.push((self.state(end, a.end_theta), cost));
+            }
+        }
+    }
+}

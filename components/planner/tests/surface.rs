@@ -1,0 +1,133 @@
+//! The multi-level lattice on synthetic surfaces: up a ramp to another
+//! level, never onto a level it cannot reach, around a rock, the same plan
+//! twice.
+
+use speleo_mapping::mls::{MlsMap, MlsParams};
+use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
+use speleo_planner::primitives::{generate, PrimitiveSpec};
+use speleo_planner::surface::{SurfaceLattice, SurfaceParams};
+use speleo_traversability::{TravMap, TravParams};
+
+fn surface(m: &mut MlsMap, x: (f64, f64), y: (f64, f64), z: impl Fn(f64, f64) -> f64) {
+    let mut pts = Vec::new();
+    let mut px = x.0 + 0.025;
+    while px < x.1 {
+        let mut py = y.0 + 0.025;
+        while py < y.1 {
+            pts.push([px, py, z(px, py)]);
+            py += 0.05;
+        }
+        px += 0.05;
+    }
+    m.insert_points(&pts);
+}
+
+/// A floor, a 14-degree ramp up 1 m and an upper floor, 3 m wide, with a
+/// bridge 2.5 m over the floor that nothing leads to.
+fn world() -> MlsMap {
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 5.0), (0.0, 3.0), |_, _| 0.0);
+    surface(&mut m, (5.0, 9.0), (0.0, 3.0), |x, _| 0.25 * (x - 5.0));
+    surface(&mut m, (9.0, 13.0), (0.0, 3.0), |_, _| 1.0);
+    surface(&mut m, (1.0, 4.0), (1.0, 2.0), |_, _| 2.5);
+    m
+}
+
+struct Plan {
+    cost: Option<u32>,
+    first: Option<u32>,
+    path: Vec<[f64; 3]>,
+    expansions: u64,
+}
+
+fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
+    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    trav.build(m, [start[0], start[1], start[2]])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let prims = generate(&PrimitiveSpec::default());
+    let node = |p: [f64; 4]| trav.node_at(p[0], p[1], p[2], 0.3);
+    let (Some(s), Some(g)) = (node(start), node(goal)) else {
+        return Plan {
+            cost: None,
+            first: None,
+            path: Vec::new(),
+            expansions: 0,
+        };
+    };
+    let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, 16);
+    let lat = SurfaceLattice::new(
+        &trav,
+        m,
+        &prims,
+        SurfaceParams::default(),
+        (g, bin(goal[3])),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut a = AraStar::new(lat.state_count(), lat.max_actions());
+    a.start(
+        &lat,
+        lat.state(s, bin(start[3])),
+        lat.goal_state(),
+        AraParams::default(),
+    );
+    let mut first = None;
+    let cost = loop {
+        match a.step(&lat, 500) {
+            Progress::Searching => {}
+            Progress::Solution { cost, .. } => {
+                first.get_or_insert(cost);
+            }
+            Progress::Optimal { cost } => break Some(cost),
+            Progress::NoPath | Progress::Idle => break None,
+        }
+    };
+    let mut states = Vec::new();
+    a.path(&mut states);
+    Plan {
+        cost,
+        first,
+        path: lat.path_positions(&states),
+        expansions: a.stats().expansions,
+    }
+}
+
+#[test]
+fn the_plan_climbs_the_ramp_to_the_upper_floor_and_repeats_bit_for_bit() {
+    let m = world();
+    let (start, goal) = ([1.0, 1.5, 0.0, 0.0], [11.5, 1.5, 1.0, 0.0]);
+    let p = plan(&m, start, goal);
+    let cost = p.cost.unwrap_or_else(|| panic!("no plan"));
+    // At least the straight 10.55 m at 0.3 m/s.
+    assert!(cost as f64 >= 10.55 / 0.3 * 1000.0 * 0.99, "{cost} ms");
+    assert!(p
+        .first
+        .is_some_and(|f| f >= cost && f as f64 <= 3.0 * cost as f64));
+    let last = p.path[p.path.len() - 1];
+    assert!(
+        (last[2] - 1.0).abs() < 0.05 && (last[0] - 11.5).abs() < 0.1,
+        "{last:?}"
+    );
+    // On the ground all the way: on the ramp, the ramp's height.
+    for q in &p.path {
+        let ground = (0.25 * (q[0] - 5.0)).clamp(0.0, 1.0);
+        assert!((q[2] - ground).abs() < 0.06, "{q:?}");
+    }
+    let again = plan(&m, start, goal);
+    assert_eq!((again.cost, again.expansions), (p.cost, p.expansions));
+    assert_eq!(again.path, p.path);
+}
+
+#[test]
+fn a_level_nothing_leads_to_is_not_planned_to() {
+    let m = world();
+    // The bridge over the floor is a separate level: no node there.
+    let p = plan(&m, [1.0, 1.5, 0.0, 0.0], [2.5, 1.5, 2.5, 0.0]);
+    assert_eq!(p.cost, None);
+    // Under the bridge, on the floor, is fine (2.5 m of headroom).
+    let p = plan(
+        &m,
+        [1.0, 1.5, 0.0, 0.0],
+        [3.0, 1.5, 0.0, 90.0f64.to_radians()],
+    );
+    assert!(p.cost.is_some());
+}
