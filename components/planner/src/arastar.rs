@@ -25,6 +25,9 @@ pub trait Lattice {
     /// `s`'s successors and the costs to reach them, into `out` (cleared
     /// first).
     fn successors(&self, s: u32, out: &mut Vec<(u32, u32)>);
+    /// The most successors a state has (the search's buffer is sized
+    /// for it).
+    fn max_successors(&self) -> usize;
 }
 
 /// How the inflation falls.

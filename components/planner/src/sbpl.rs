@@ -388,14 +388,13 @@ impl SbplLattice {
         self.inside(x, y)
             .then(|| x as usize + y as usize * self.env.width)
     }
-
-    /// The most actions any heading has.
-    pub fn max_actions(&self) -> usize {
-        self.actions.iter().map(Vec::len).max().unwrap_or(0)
-    }
 }
 
 impl Lattice for SbplLattice {
+    fn max_successors(&self) -> usize {
+        self.actions.iter().map(Vec::len).max().unwrap_or(0)
+    }
+
     fn state_count(&self) -> usize {
         self.cell_count() * self.env.angles as usize
     }

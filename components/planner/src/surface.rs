@@ -194,10 +194,6 @@ impl<'a> SurfaceLattice<'a> {
         self.state(self.goal.0, self.goal.1)
     }
 
-    pub fn max_actions(&self) -> usize {
-        self.actions.iter().map(Vec::len).max().unwrap_or(0)
-    }
-
     /// Primitives kept per heading.
     pub fn action_count(&self) -> usize {
         self.actions.iter().map(Vec::len).sum()
@@ -433,6 +429,10 @@ fn surface_action(
 }
 
 impl Lattice for SurfaceLattice<'_> {
+    fn max_successors(&self) -> usize {
+        self.actions.iter().map(Vec::len).max().unwrap_or(0)
+    }
+
     fn state_count(&self) -> usize {
         self.trav.nodes().len() * self.angles as usize
     }

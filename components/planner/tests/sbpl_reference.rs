@@ -27,7 +27,7 @@ fn lattice(dir: &std::path::Path, env: &str, prims: &str) -> SbplLattice {
 
 /// Runs ARA* to the end: (first cost, optimal cost), or None.
 fn plan(l: &SbplLattice, eps: f64) -> Option<(u32, u32)> {
-    let mut a = AraStar::new(l.state_count(), l.max_actions());
+    let mut a = AraStar::new(l.state_count(), l.max_successors());
     a.start(
         l,
         l.start_state(),

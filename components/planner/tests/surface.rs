@@ -63,7 +63,7 @@ fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
         (g, bin(goal[3])),
     )
     .unwrap_or_else(|e| panic!("{e}"));
-    let mut a = AraStar::new(lat.state_count(), lat.max_actions());
+    let mut a = AraStar::new(lat.state_count(), lat.max_successors());
     a.start(
         &lat,
         lat.state(s, bin(start[3])),

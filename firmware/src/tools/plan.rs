@@ -80,6 +80,71 @@ impl fmt::Display for PlanReport {
     }
 }
 
+/// A search run to its end, round by round, timed.
+pub struct TimedSearch {
+    pub rounds: Vec<Round>,
+    /// The optimal cost and when it was proven, s.
+    pub optimal: Option<(u32, f64)>,
+    pub expansions: u64,
+    /// The best path's states.
+    pub states: Vec<u32>,
+}
+
+/// ARA* from `start` to `goal` in quanta of `quantum` expansions, as the
+/// on-board task runs it, each published solution timed.
+pub fn search_timed<L: Lattice>(
+    lat: &L,
+    start: u32,
+    goal: u32,
+    eps: f64,
+    eps_step: f64,
+    quantum: u32,
+) -> TimedSearch {
+    let mut search = AraStar::new(lat.state_count(), lat.max_successors());
+    let started = Instant::now();
+    search.start(
+        lat,
+        start,
+        goal,
+        AraParams {
+            initial_eps: eps,
+            eps_step,
+        },
+    );
+    let mut rounds = Vec::new();
+    let mut optimal = None;
+    loop {
+        let progress = search.step(lat, quantum.max(1));
+        let round = |cost, eps| Round {
+            eps,
+            cost,
+            expansions: search.stats().expansions,
+            time_s: started.elapsed().as_secs_f64(),
+        };
+        match progress {
+            Progress::Searching => {}
+            Progress::Solution { eps_milli, cost } => {
+                rounds.push(round(cost, eps_milli as f64 / 1000.0))
+            }
+            Progress::Optimal { cost } => {
+                let r = round(cost, 1.0);
+                optimal = Some((cost, r.time_s));
+                rounds.push(r);
+                break;
+            }
+            Progress::NoPath | Progress::Idle => break,
+        }
+    }
+    let mut states = Vec::new();
+    search.path(&mut states);
+    TimedSearch {
+        rounds,
+        optimal,
+        expansions: search.stats().expansions,
+        states,
+    }
+}
+
 pub fn plan_sbpl(a: &PlanArgs) -> Result<PlanReport, Error> {
     let started = Instant::now();
     let read = |p: &std::path::Path| {
@@ -93,44 +158,16 @@ pub fn plan_sbpl(a: &PlanArgs) -> Result<PlanReport, Error> {
         mprim::parse(&read(mprim_path)?).map_err(|e| format!("{}: {e}", mprim_path.display()))?;
     let lat = SbplLattice::new(env, &prims)?;
     let setup_s = started.elapsed().as_secs_f64();
-    let mut search = AraStar::new(lat.state_count(), lat.max_actions());
-    let started = Instant::now();
-    search.start(
+    let timed = search_timed(
         &lat,
         lat.start_state(),
         lat.goal_state(),
-        AraParams {
-            initial_eps: a.eps,
-            eps_step: a.eps_step,
-        },
+        a.eps,
+        a.eps_step,
+        a.quantum,
     );
-    let mut rounds = Vec::new();
-    let mut optimal = None;
-    loop {
-        match search.step(&lat, a.quantum.max(1)) {
-            Progress::Searching => continue,
-            Progress::Solution { eps_milli, cost } => rounds.push(Round {
-                eps: eps_milli as f64 / 1000.0,
-                cost,
-                expansions: search.stats().expansions,
-                time_s: started.elapsed().as_secs_f64(),
-            }),
-            Progress::Optimal { cost } => {
-                let t = started.elapsed().as_secs_f64();
-                rounds.push(Round {
-                    eps: 1.0,
-                    cost,
-                    expansions: search.stats().expansions,
-                    time_s: t,
-                });
-                optimal = Some((cost, t));
-                break;
-            }
-            Progress::NoPath | Progress::Idle => break,
-        }
-    }
-    let mut states = Vec::new();
-    search.path(&mut states);
+    let (rounds, optimal, expansions) = (timed.rounds, timed.optimal, timed.expansions);
+    let states = timed.states;
     let cell = |(x, y, t): (i32, i32, u32)| [x as i64, y as i64, t as i64];
     Ok(PlanReport {
         env: env_path.display().to_string(),
@@ -144,7 +181,7 @@ pub fn plan_sbpl(a: &PlanArgs) -> Result<PlanReport, Error> {
         heuristic_at_start: lat.heuristic(lat.start_state()),
         first_solution_s: rounds.first().map(|r| r.time_s),
         optimal_s: optimal.map(|o| o.1),
-        expansions: search.stats().expansions,
+        expansions,
         cost: optimal.map(|o| o.0),
         path_length_m: lat.path_length_m(&states),
         path: states.iter().map(|&s| cell(lat.decode(s))).collect(),

@@ -11,14 +11,14 @@ use serde::Serialize;
 use speleo_hal::sim::lidar::LidarWorld;
 use speleo_hal::world::World;
 use speleo_mapping::mls::{MlsMap, MlsParams};
-use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
+use speleo_planner::arastar::Lattice;
 use speleo_planner::mprim;
 use speleo_planner::primitives::{generate, PrimitiveSpec};
 use speleo_planner::sbpl::angle_to_bin;
 use speleo_planner::surface::{SurfaceLattice, SurfaceParams};
 use speleo_traversability::{TravMap, TravParams};
 
-use super::plan::Round;
+use super::plan::{search_timed, Round};
 use super::Error;
 
 /// Spacing of the points sampled on the mesh, m.
@@ -258,43 +258,15 @@ pub fn plan_world(a: &WorldPlanArgs<'_>) -> Result<WorldPlanReport, Error> {
     )?;
     let lattice_s = started.elapsed().as_secs_f64();
     let s_state = lat.state(s_node, angle_to_bin(start[3], prims.angles));
-    let mut search = AraStar::new(lat.state_count(), lat.max_actions());
-    let started = Instant::now();
-    search.start(
+    let timed = search_timed(
         &lat,
         s_state,
         lat.goal_state(),
-        AraParams {
-            initial_eps: a.eps,
-            eps_step: a.eps_step,
-        },
+        a.eps,
+        a.eps_step,
+        a.quantum,
     );
-    let mut rounds = Vec::new();
-    let mut optimal = None;
-    loop {
-        let p = search.step(&lat, a.quantum.max(1));
-        let round = |cost, eps| Round {
-            eps,
-            cost,
-            expansions: search.stats().expansions,
-            time_s: started.elapsed().as_secs_f64(),
-        };
-        match p {
-            Progress::Searching => {}
-            Progress::Solution { eps_milli, cost } => {
-                rounds.push(round(cost, eps_milli as f64 / 1000.0))
-            }
-            Progress::Optimal { cost } => {
-                let r = round(cost, 1.0);
-                optimal = Some((cost, r.time_s));
-                rounds.push(r);
-                break;
-            }
-            Progress::NoPath | Progress::Idle => break,
-        }
-    }
-    let mut states = Vec::new();
-    search.path(&mut states);
+    let (rounds, optimal, states) = (timed.rounds, timed.optimal, timed.states);
     let path = lat.path_positions(&states);
     let path_length_m = path
         .windows(2)
@@ -320,7 +292,7 @@ pub fn plan_world(a: &WorldPlanArgs<'_>) -> Result<WorldPlanReport, Error> {
         heuristic_at_start_ms: lat.heuristic(s_state),
         first_solution_s: rounds.first().map(|r| r.time_s),
         optimal_s: optimal.map(|o| o.1),
-        expansions: search.stats().expansions,
+        expansions: timed.expansions,
         cost_ms: optimal.map(|o| o.0),
         path_length_m,
         path,
