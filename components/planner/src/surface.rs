@@ -381,31 +381,34 @@ fn surface_action(
         }
     }
     // The body's rectangle at every pose, sampled at a quarter cell.
-    let mut footprint: Vec<(i32, i32, u16)> = Vec::new();
     let (hl, hw) = (p.body_length_m / 2.0, p.body_width_m / 2.0);
     let s = res / 4.0;
+    let (nu, nv) = ((2.0 * hl / s).round() as i32, (2.0 * hw / s).round() as i32);
+    let mut covered: Vec<(i32, i32)> = Vec::new();
     for q in &prim.poses {
         let (c, sn) = (q[2].cos(), q[2].sin());
-        let mut u = -hl;
-        while u <= hl + 1e-9 {
-            let mut v = -hw;
-            while v <= hw + 1e-9 {
-                let (x, y) = (q[0] + u * c - v * sn, q[1] + u * sn + v * c);
-                let (ix, iy) = cell(x, y);
-                if !footprint.iter().any(|f| (f.0, f.1) == (ix, iy)) {
-                    let k = cells
-                        .iter()
-                        .enumerate()
-                        .min_by_key(|(_, cc)| (cc.0 - ix).pow(2) + (cc.1 - iy).pow(2))
-                        .map_or(0, |(k, _)| k);
-                    footprint.push((ix, iy, k as u16));
-                }
-                v += s;
+        for i in 0..=nu {
+            let u = -hl + 2.0 * hl * i as f64 / nu.max(1) as f64;
+            for j in 0..=nv {
+                let v = -hw + 2.0 * hw * j as f64 / nv.max(1) as f64;
+                covered.push(cell(q[0] + u * c - v * sn, q[1] + u * sn + v * c));
             }
-            u += s;
         }
     }
-    footprint.sort_unstable();
+    covered.sort_unstable();
+    covered.dedup();
+    // Sorted by cell, as `covered` is.
+    let footprint: Vec<(i32, i32, u16)> = covered
+        .iter()
+        .map(|&(ix, iy)| {
+            let k = cells
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, cc)| (cc.0 - ix).pow(2) + (cc.1 - iy).pow(2))
+                .map_or(0, |(k, _)| k);
+            (ix, iy, k as u16)
+        })
+        .collect();
     let length_m = prim
         .poses
         .windows(2)
