@@ -71,6 +71,28 @@ impl Session {
         })
     }
 
+    /// Feed recorded inputs through the drivers and tasks on virtual time,
+    /// up to and including frame `last`.
+    fn replay(
+        &mut self,
+        cfg: &Config,
+        inputs: Vec<speleo_hal::replay::RecordedInput>,
+        last: u64,
+        progress: bool,
+    ) -> Result<MissionResult, Error> {
+        let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, inputs);
+        self.drive(
+            cfg,
+            Length::Frames(last + 1),
+            virtual_enforcement(cfg),
+            None,
+            &AtomicBool::new(false),
+            &mut hw,
+            VirtualClock::new(cfg.executive.minor_frame_us),
+            progress,
+        )
+    }
+
     /// Run the mission, then close the recording.
     #[allow(clippy::too_many_arguments)]
     fn drive<C: FrameClock>(
@@ -377,17 +399,7 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
         )
     });
     let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, comparer, true)?;
-    let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
-    let mut result = session.drive(
-        &cfg,
-        Length::Frames(last + 1),
-        virtual_enforcement(&cfg),
-        None,
-        &AtomicBool::new(false),
-        &mut hw,
-        VirtualClock::new(cfg.executive.minor_frame_us),
-        progress,
-    )?;
+    let mut result = session.replay(&cfg, rec.inputs, last, progress)?;
     let (divergence, compared) = {
         let t = session.tap.borrow();
         let c = t.comparer();
@@ -488,17 +500,7 @@ fn mesh_recording(
     let meta = run_metadata(&cfg, "mesh", epoch_ns);
     let outputs = Outputs::default();
     let mut session = Session::open(&outputs, &cfg, meta, epoch_ns, None, true)?;
-    let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
-    let result = session.drive(
-        &cfg,
-        Length::Frames(last + 1),
-        virtual_enforcement(&cfg),
-        None,
-        &AtomicBool::new(false),
-        &mut hw,
-        VirtualClock::new(cfg.executive.minor_frame_us),
-        progress,
-    )?;
+    let result = session.replay(&cfg, rec.inputs, last, progress)?;
     let Some(maps) = &result.maps else {
         return Err(format!(
             "{}: SLAM is off in the recorded configuration",
