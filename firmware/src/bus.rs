@@ -202,6 +202,9 @@ pub struct Bus {
     /// The keyframes' clouds and poses for the maps: written by slam, read
     /// by maps. Empty until the mission sizes it.
     pub keyframe_clouds: crate::keyframe_clouds::KeyframeClouds,
+    /// The multi-level surface maps: written by maps, read by the planner.
+    /// One-cell maps until the mission sizes them.
+    pub surface: crate::surface_maps::SurfaceMaps,
     pub command: Latest<WheelCommand>,
     /// Frames to put on the CAN bus at the start of the next frame.
     pub can_tx: Fifo<CanFrame, 32>,
@@ -234,6 +237,7 @@ impl Bus {
             ),
             odom_counters: OdometryCounters::default(),
             keyframe_clouds: crate::keyframe_clouds::KeyframeClouds::new(0, 0),
+            surface: crate::surface_maps::SurfaceMaps::empty(),
             command: Latest::new(),
             can_tx: Fifo::new(),
             imu_tx: Fifo::new(),

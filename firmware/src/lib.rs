@@ -13,5 +13,6 @@ pub mod record;
 pub mod report;
 pub mod schedule_table;
 pub mod slam_figures;
+pub mod surface_maps;
 pub mod tasks;
 pub mod tools;

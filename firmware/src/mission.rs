@@ -202,6 +202,7 @@ pub fn run<C: FrameClock>(
         bus.keyframe_clouds =
             crate::keyframe_clouds::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
         t_slam = t_slam.with_maps(cfg.maps.range_m, cfg.maps.keyframe_points);
+        bus.surface = crate::surface_maps::SurfaceMaps::new(cfg.maps.mls_params())?;
         maps::MapsTask::new(&cfg.maps, kf_capacity)?
     } else {
         // Idle: nothing ever reaches the keyframe clouds.
@@ -394,8 +395,8 @@ pub fn run<C: FrameClock>(
         )
     });
     let maps = maps_on.then(|| MapsResult {
-        mls: t_maps.stats(),
-        memory_bytes: t_maps.memory_bytes() + bus.keyframe_clouds.memory_bytes(),
+        mls: bus.surface.stats(),
+        memory_bytes: bus.surface.memory_bytes() + bus.keyframe_clouds.memory_bytes(),
         counters: t_maps.counters,
         keyframes: std::mem::replace(
             &mut bus.keyframe_clouds,

@@ -72,11 +72,33 @@ struct SurfaceAction {
     cost_mult: u32,
 }
 
-/// The lattice over a traversability map; see the module documentation.
-pub struct SurfaceLattice<'a> {
-    trav: &'a TravMap,
+/// Where the preparation for a query is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Prep {
+    /// No query (or the graph changed since).
+    None,
+    /// Indexing nodes by cell, from this node on.
+    Index(usize),
+    /// The body's height band over each node.
+    Body(usize),
+    /// Room for the body's circle around each node.
+    Clear(usize),
+    /// The cost-to-go, Dijkstra from the goal.
+    CostToGo,
+    Ready,
+}
+
+/// The lattice over a traversability map it owns; see the module
+/// documentation. Every buffer is taken at construction for the map's node
+/// limit: preparing a query and searching allocate nothing.
+pub struct SurfaceLattice {
+    trav: TravMap,
+    /// The primitives' cell size, which the graph's must match.
+    res_m: f64,
     angles: u32,
     p: SurfaceParams,
+    /// Per heading bin: the primitives with their cell moves and body
+    /// footprints, made once.
     actions: Vec<Vec<SurfaceAction>>,
     /// Per node: nothing in the body's height band over its ground.
     body_free: Vec<bool>,
@@ -93,6 +115,9 @@ pub struct SurfaceLattice<'a> {
     /// Next node in the same cell.
     next_in_cell: Vec<u32>,
     goal: (u32, u32),
+    prep: Prep,
+    /// Dijkstra's queue (at most one entry per link relaxed: 8 a node).
+    open: BinaryHeap<Reverse<(u32, u32)>>,
     /// Scratch: the nodes an action's path visits.
     path: RefCell<Vec<u32>>,
 }
@@ -101,26 +126,33 @@ fn direction(dx: i32, dy: i32) -> Option<u8> {
     MOVES.iter().position(|&m| m == (dx, dy)).map(|k| k as u8)
 }
 
-impl<'a> SurfaceLattice<'a> {
-    /// The lattice for a query to node `goal` at heading bin `goal_theta`.
-    /// `prims` must be at the map's resolution.
+/// Work units of each preparation phase: nodes indexed, nodes whose band
+/// is checked, nodes whose circle is checked, Dijkstra pops. Chosen so a
+/// unit of each costs about the same (a circle check looks at ~200 cells).
+const INDEX_PER_UNIT: usize = 64;
+const BODY_PER_UNIT: usize = 16;
+const POPS_PER_UNIT: usize = 4;
+
+impl SurfaceLattice {
+    /// The lattice over `trav` (whose graph may be grown later, through
+    /// [`trav_mut`](Self::trav_mut)) with the primitives `prims`, at the
+    /// map's resolution, for graphs whose nodes' cells span at most
+    /// `max_grid_cells` cells.
     pub fn new(
-        trav: &'a TravMap,
-        mls: &MlsMap,
+        trav: TravMap,
         prims: &MprimFile,
         p: SurfaceParams,
-        goal: (u32, u32),
+        max_grid_cells: usize,
     ) -> Result<Self, String> {
-        let res = trav.resolution();
-        if (prims.resolution_m - res).abs() > 1e-6 * res {
+        let res = prims.resolution_m;
+        if !(res > 0.0 && res.is_finite()) {
             return Err(format!(
-                "the primitives are for {} m cells, the map has {res} m",
-                prims.resolution_m
+                "the primitives' resolution {res} m is not positive"
             ));
         }
-        let n = trav.nodes().len();
+        let n = trav.params().max_nodes;
         if n.saturating_mul(prims.angles as usize) >= u32::MAX as usize {
-            return Err("too many states".into());
+            return Err("too many states: lower max_nodes".into());
         }
         let mut actions = vec![Vec::new(); prims.angles as usize];
         for prim in &prims.primitives {
@@ -128,58 +160,226 @@ impl<'a> SurfaceLattice<'a> {
                 actions[prim.start_angle as usize].push(a);
             }
         }
-        // The cell grid over the nodes' bounding box.
+        Ok(SurfaceLattice {
+            trav,
+            res_m: res,
+            angles: prims.angles,
+            p,
+            actions,
+            body_free: Vec::with_capacity(n),
+            clear: Vec::with_capacity(n),
+            heuristic: Vec::with_capacity(n),
+            grid: Vec::with_capacity(max_grid_cells),
+            origin: (0, 0),
+            dims: (0, 0),
+            next_in_cell: Vec::with_capacity(n),
+            goal: (0, 0),
+            prep: Prep::None,
+            open: BinaryHeap::with_capacity(8 * n + 1),
+            path: RefCell::new(Vec::with_capacity(256)),
+        })
+    }
+
+    pub fn trav(&self) -> &TravMap {
+        &self.trav
+    }
+
+    /// The graph, to grow it again; the query must be begun again after.
+    pub fn trav_mut(&mut self) -> &mut TravMap {
+        self.prep = Prep::None;
+        &mut self.trav
+    }
+
+    /// Most states any graph within the node limit gives (the search's
+    /// storage).
+    pub fn max_state_count(&self) -> usize {
+        self.trav.params().max_nodes * self.angles as usize
+    }
+
+    /// Heading bins.
+    pub fn angles(&self) -> u32 {
+        self.angles
+    }
+
+    /// Prepare a query to node `goal` at heading bin `goal_theta` over the
+    /// current (complete) graph, in [`prepare`](Self::prepare) steps.
+    pub fn begin(&mut self, goal: (u32, u32)) -> Result<(), String> {
+        self.prep = Prep::None;
+        if !self.trav.is_complete() {
+            return Err("the traversability graph is not complete".into());
+        }
+        let res = self.trav.resolution();
+        if (self.res_m - res).abs() > 1e-6 * res {
+            return Err(format!(
+                "the primitives are for {} m cells, the map has {res} m",
+                self.res_m
+            ));
+        }
+        let nodes = self.trav.nodes();
+        let n = nodes.len();
+        if goal.0 as usize >= n || goal.1 >= self.angles {
+            return Err(format!("no goal state ({}, {})", goal.0, goal.1));
+        }
         let (mut x0, mut y0, mut x1, mut y1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
-        for nd in trav.nodes() {
+        for nd in nodes {
             x0 = x0.min(nd.ix);
             y0 = y0.min(nd.iy);
             x1 = x1.max(nd.ix);
             y1 = y1.max(nd.iy);
         }
-        let dims = if n == 0 {
-            (0, 0)
-        } else {
-            ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize)
-        };
-        let mut grid = vec![NONE; dims.0 * dims.1];
-        let mut next_in_cell = vec![NONE; n];
-        for (i, nd) in trav.nodes().iter().enumerate() {
-            let c = (nd.iy - y0) as usize * dims.0 + (nd.ix - x0) as usize;
-            next_in_cell[i] = grid[c];
-            grid[c] = i as u32;
+        let dims = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
+        if dims.0 * dims.1 > self.grid.capacity() {
+            return Err(format!(
+                "the graph spans {} x {} cells, more than the {} the lattice was made for",
+                dims.0,
+                dims.1,
+                self.grid.capacity()
+            ));
         }
-        let tp = trav.params();
-        let body_free = trav
-            .nodes()
-            .iter()
-            .map(|nd| {
-                let (lo, hi) = (
-                    nd.ground_z + tp.ground_clearance_m,
-                    nd.ground_z + tp.robot_height_m,
-                );
+        self.origin = (x0, y0);
+        self.dims = dims;
+        self.grid.clear();
+        self.grid.resize(dims.0 * dims.1, NONE);
+        self.next_in_cell.clear();
+        self.next_in_cell.resize(n, NONE);
+        self.body_free.clear();
+        self.clear.clear();
+        self.heuristic.clear();
+        self.heuristic.resize(n, INFINITE_COST);
+        self.open.clear();
+        self.goal = goal;
+        self.prep = Prep::Index(0);
+        Ok(())
+    }
+
+    /// Up to `units` units of the preparation; true once the lattice is
+    /// ready to search. `mls` must be the map the graph was grown on.
+    pub fn prepare(&mut self, mls: &MlsMap, units: usize) -> bool {
+        for _ in 0..units.max(1) {
+            self.prep = match self.prep {
+                Prep::None | Prep::Ready => break,
+                Prep::Index(i) => self.index_nodes(i),
+                Prep::Body(i) => self.check_bands(mls, i),
+                Prep::Clear(i) => self.check_circle(i),
+                Prep::CostToGo => self.settle(),
+            };
+        }
+        self.prep == Prep::Ready
+    }
+
+    /// [`begin`](Self::begin) and [`prepare`](Self::prepare) to the end.
+    pub fn prepare_all(&mut self, mls: &MlsMap, goal: (u32, u32)) -> Result<(), String> {
+        self.begin(goal)?;
+        while !self.prepare(mls, usize::MAX) {}
+        Ok(())
+    }
+
+    pub fn is_ready(&self) -> bool {
+        self.prep == Prep::Ready
+    }
+
+    fn index_nodes(&mut self, from: usize) -> Prep {
+        let nodes = self.trav.nodes();
+        let to = (from + INDEX_PER_UNIT).min(nodes.len());
+        for (i, nd) in nodes.iter().enumerate().take(to).skip(from) {
+            let c =
+                (nd.iy - self.origin.1) as usize * self.dims.0 + (nd.ix - self.origin.0) as usize;
+            self.next_in_cell[i] = self.grid[c];
+            self.grid[c] = i as u32;
+        }
+        if to < nodes.len() {
+            Prep::Index(to)
+        } else {
+            Prep::Body(0)
+        }
+    }
+
+    fn check_bands(&mut self, mls: &MlsMap, from: usize) -> Prep {
+        let nodes = self.trav.nodes();
+        let tp = self.trav.params();
+        let to = (from + BODY_PER_UNIT).min(nodes.len());
+        for nd in &nodes[from..to] {
+            let (lo, hi) = (
+                nd.ground_z + tp.ground_clearance_m,
+                nd.ground_z + tp.robot_height_m,
+            );
+            self.body_free.push(
                 !mls.cell(nd.ix, nd.iy)
                     .iter()
-                    .any(|q| q.max >= lo && q.min <= hi)
-            })
-            .collect();
-        let mut l = SurfaceLattice {
-            trav,
-            angles: prims.angles,
-            p,
-            actions,
-            body_free,
-            clear: Vec::new(),
-            heuristic: Vec::new(),
-            grid,
-            origin: (x0, y0),
-            dims,
-            next_in_cell,
-            goal,
-            path: RefCell::new(Vec::with_capacity(256)),
-        };
-        l.heuristic = l.cost_to_go(goal.0);
-        l.clear = l.clearances();
-        Ok(l)
+                    .any(|q| q.max >= lo && q.min <= hi),
+            );
+        }
+        if to < nodes.len() {
+            Prep::Body(to)
+        } else {
+            Prep::Clear(0)
+        }
+    }
+
+    /// Whether node `i` has room for the body in every orientation.
+    fn check_circle(&mut self, i: usize) -> Prep {
+        let nodes = self.trav.nodes();
+        if i >= nodes.len() {
+            let g = self.goal.0;
+            self.heuristic[g as usize] = 0;
+            self.open.push(Reverse((0, g)));
+            return Prep::CostToGo;
+        }
+        let res = self.trav.resolution();
+        let radius = (self.p.body_length_m / 2.0).hypot(self.p.body_width_m / 2.0)
+            + res * std::f64::consts::SQRT_2;
+        let reach = (radius / res).ceil() as i32;
+        let r2 = (radius / res).powi(2);
+        let tol = self.trav.params().max_step_m * 2.0;
+        let nd = nodes[i];
+        let free = self.body_free[i]
+            && (-reach..=reach).all(|dy| {
+                (-reach..=reach).all(|dx| {
+                    ((dx * dx + dy * dy) as f64) > r2
+                        || self
+                            .node_near(nd.ix + dx, nd.iy + dy, nd.ground_z, tol)
+                            .is_some_and(|j| self.body_free[j as usize])
+                })
+            });
+        self.clear.push(free);
+        Prep::Clear(i + 1)
+    }
+
+    /// A few steps of Dijkstra from the goal: travel time at the forward
+    /// speed over the graph, ms, scaled to stay admissible.
+    fn settle(&mut self) -> Prep {
+        let nodes = self.trav.nodes();
+        // Straight over 8-neighbour length is at least 1 / 1.0824.
+        let scale = 1000.0 / self.p.forward_speed_mps / 1.0824;
+        let res = self.trav.resolution();
+        for _ in 0..POPS_PER_UNIT {
+            let Some(Reverse((d, i))) = self.open.pop() else {
+                return Prep::Ready;
+            };
+            if d > self.heuristic[i as usize] {
+                continue;
+            }
+            let a = &nodes[i as usize];
+            for (k, &j) in a.neighbours.iter().enumerate() {
+                if j == NONE || !nodes[j as usize].class.is_drivable() {
+                    continue;
+                }
+                let b = &nodes[j as usize];
+                let xy = if k % 2 == 0 {
+                    res
+                } else {
+                    res * std::f64::consts::SQRT_2
+                };
+                let dz = (a.ground_z - b.ground_z) as f64;
+                let c = ((xy * xy + dz * dz).sqrt() * scale).floor() as u32;
+                let nd = d.saturating_add(c);
+                if nd < self.heuristic[j as usize] {
+                    self.heuristic[j as usize] = nd;
+                    self.open.push(Reverse((nd, j)));
+                }
+            }
+        }
+        Prep::CostToGo
     }
 
     pub fn state(&self, node: u32, theta: u32) -> u32 {
@@ -217,75 +417,6 @@ impl<'a> SurfaceLattice<'a> {
             i = self.next_in_cell[i as usize];
         }
         best
-    }
-
-    /// Which nodes have room for the body in every orientation.
-    fn clearances(&self) -> Vec<bool> {
-        let res = self.trav.resolution();
-        let radius = (self.p.body_length_m / 2.0).hypot(self.p.body_width_m / 2.0)
-            + res * std::f64::consts::SQRT_2;
-        let reach = (radius / res).ceil() as i32;
-        let r2 = (radius / res).powi(2);
-        let tol = self.trav.params().max_step_m * 2.0;
-        self.trav
-            .nodes()
-            .iter()
-            .enumerate()
-            .map(|(i, nd)| {
-                self.body_free[i]
-                    && (-reach..=reach).all(|dy| {
-                        (-reach..=reach).all(|dx| {
-                            ((dx * dx + dy * dy) as f64) > r2
-                                || self
-                                    .node_near(nd.ix + dx, nd.iy + dy, nd.ground_z, tol)
-                                    .is_some_and(|j| self.body_free[j as usize])
-                        })
-                    })
-            })
-            .collect()
-    }
-
-    /// Travel time to the goal node over the graph, ms (admissible).
-    fn cost_to_go(&self, goal: u32) -> Vec<u32> {
-        let nodes = self.trav.nodes();
-        let mut h = vec![INFINITE_COST; nodes.len()];
-        if goal as usize >= nodes.len() {
-            return h;
-        }
-        // Straight over 8-neighbour length is at least 1 / 1.0824.
-        let scale = 1000.0 / self.p.forward_speed_mps / 1.0824;
-        let res = self.trav.resolution();
-        h[goal as usize] = 0;
-        let mut open = BinaryHeap::new();
-        open.push(Reverse((0u32, goal)));
-        while let Some(Reverse((d, i))) = open.pop() {
-            if d > h[i as usize] {
-                continue;
-            }
-            let a = &nodes[i as usize];
-            for (k, &j) in a.neighbours.iter().enumerate() {
-                if j == NONE {
-                    continue;
-                }
-                let b = &nodes[j as usize];
-                if !b.class.is_drivable() {
-                    continue;
-                }
-                let xy = if k % 2 == 0 {
-                    res
-                } else {
-                    res * std::f64::consts::SQRT_2
-                };
-                let dz = (a.ground_z - b.ground_z) as f64;
-                let c = ((xy * xy + dz * dz).sqrt() * scale).floor() as u32;
-                let nd = d.saturating_add(c);
-                if nd < h[j as usize] {
-                    h[j as usize] = nd;
-                    open.push(Reverse((nd, j)));
-                }
-            }
-        }
-        h
     }
 
     /// The cost of action `a` from node `n`, and the node it ends on.
@@ -431,7 +562,7 @@ fn surface_action(
     })
 }
 
-impl Lattice for SurfaceLattice<'_> {
+impl Lattice for SurfaceLattice {
     fn max_successors(&self) -> usize {
         self.actions.iter().map(Vec::len).max().unwrap_or(0)
     }
@@ -441,12 +572,19 @@ impl Lattice for SurfaceLattice<'_> {
     }
 
     fn heuristic(&self, s: u32) -> u32 {
-        self.heuristic[self.decode(s).0 as usize]
+        // Before the preparation is done nothing is reachable.
+        self.heuristic
+            .get(self.decode(s).0 as usize)
+            .copied()
+            .unwrap_or(INFINITE_COST)
     }
 
     fn successors(&self, s: u32, out: &mut Vec<(u32, u32)>) {
         out.clear();
         let (n, th) = self.decode(s);
+        if self.prep != Prep::Ready || n as usize >= self.clear.len() {
+            return;
+        }
         let mut path = self.path.borrow_mut();
         for a in &self.actions[th as usize] {
             if let Some((end, cost)) = self.apply(n, a, &mut path) {

@@ -55,15 +55,11 @@ fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
         };
     };
     let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, 16);
-    let lat = SurfaceLattice::new(
-        &trav,
-        m,
-        &prims,
-        SurfaceParams::default(),
-        (g, bin(goal[3])),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let mut a = AraStar::new(lat.state_count(), lat.max_successors());
+    let mut lat = SurfaceLattice::new(trav, &prims, SurfaceParams::default(), 200 * 200)
+        .unwrap_or_else(|e| panic!("{e}"));
+    lat.prepare_all(m, (g, bin(goal[3])))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut a = AraStar::new(lat.max_state_count(), lat.max_successors());
     a.start(
         &lat,
         lat.state(s, bin(start[3])),
@@ -130,4 +126,45 @@ fn a_level_nothing_leads_to_is_not_planned_to() {
         [3.0, 1.5, 0.0, 90.0f64.to_radians()],
     );
     assert!(p.cost.is_some());
+}
+
+#[test]
+fn a_lattice_prepared_in_slices_equals_one_prepared_at_once() {
+    let m = world();
+    let lattice = |units: usize| {
+        let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+        trav.build(&m, [1.0, 1.5, 0.0])
+            .unwrap_or_else(|e| panic!("{e}"));
+        let goal = trav
+            .node_at(11.5, 1.5, 1.0, 0.3)
+            .unwrap_or_else(|| panic!("no goal node"));
+        let prims = generate(&PrimitiveSpec::default());
+        let mut lat = SurfaceLattice::new(trav, &prims, SurfaceParams::default(), 200 * 200)
+            .unwrap_or_else(|e| panic!("{e}"));
+        lat.begin((goal, 0)).unwrap_or_else(|e| panic!("{e}"));
+        let mut steps = 0;
+        while !lat.prepare(&m, units) {
+            steps += 1;
+        }
+        (lat, steps)
+    };
+    let (whole, _) = lattice(usize::MAX);
+    let (sliced, steps) = lattice(3);
+    assert!(steps > 1000, "{steps} steps");
+    assert_eq!(whole.state_count(), sliced.state_count());
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for s in 0..whole.state_count() as u32 {
+        assert_eq!(whole.heuristic(s), sliced.heuristic(s), "state {s}");
+        if s % 97 == 0 {
+            whole.successors(s, &mut a);
+            sliced.successors(s, &mut b);
+            assert_eq!(a, b, "state {s}");
+        }
+    }
+    // A lattice whose graph is regrown must be prepared again.
+    let (mut again, _) = lattice(usize::MAX);
+    let _ = again.trav_mut();
+    assert!(!again.is_ready());
+    again.successors(0, &mut a);
+    assert!(a.is_empty());
 }

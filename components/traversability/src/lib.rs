@@ -13,5 +13,5 @@ pub mod map;
 pub mod params;
 pub mod plane;
 
-pub use map::{BuildError, BuildStats, Node, TravClass, TravMap, NONE};
+pub use map::{BuildError, BuildStats, Node, TravClass, TravMap, Window, NONE};
 pub use params::TravParams;

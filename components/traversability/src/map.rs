@@ -114,6 +114,36 @@ pub struct TravMap {
     support: Vec<[f64; 3]>,
     heights: Vec<f32>,
     stats: BuildStats,
+    /// The growth is kept to these cells.
+    window: Option<Window>,
+    /// Nodes whose final class is set, once the queue is empty.
+    finished: usize,
+    complete: bool,
+}
+
+/// A rectangle of cells, inclusive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    pub min: (i32, i32),
+    pub max: (i32, i32),
+}
+
+impl Window {
+    /// The square of cells within `half_width_m` of `(x, y)` (in x and y).
+    pub fn around(x: f64, y: f64, half_width_m: f64, resolution_m: f64) -> Window {
+        let c = |v: f64| (v / resolution_m).floor() as i32;
+        Window {
+            min: (c(x - half_width_m), c(y - half_width_m)),
+            max: (c(x + half_width_m), c(y + half_width_m)),
+        }
+    }
+
+    /// Cells it holds.
+    pub fn cells(&self) -> usize {
+        let w = (self.max.0 as i64 - self.min.0 as i64 + 1).max(0) as usize;
+        let h = (self.max.1 as i64 - self.min.1 as i64 + 1).max(0) as usize;
+        w * h
+    }
 }
 
 impl TravMap {
@@ -130,6 +160,9 @@ impl TravMap {
             support: Vec::with_capacity(1024),
             heights: Vec::with_capacity(1024),
             stats: BuildStats::default(),
+            window: None,
+            finished: 0,
+            complete: false,
             params,
         })
     }
@@ -152,6 +185,18 @@ impl TravMap {
 
     pub fn resolution(&self) -> f64 {
         self.resolution
+    }
+
+    /// Cells of the bounding box of the nodes' cells.
+    pub fn cell_span(&self) -> usize {
+        let mut b = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
+        for n in &self.nodes {
+            b = (b.0.min(n.ix), b.1.min(n.iy), b.2.max(n.ix), b.3.max(n.iy));
+        }
+        if self.nodes.is_empty() {
+            return 0;
+        }
+        (b.2 - b.0 + 1) as usize * (b.3 - b.1 + 1) as usize
     }
 
     /// Centre of node `n`'s cell on its ground.
@@ -193,58 +238,112 @@ impl TravMap {
     /// (x, y and the ground height, within a step). Replaces the previous
     /// graph; allocates nothing while the node limit holds.
     pub fn build(&mut self, mls: &MlsMap, start: [f64; 3]) -> Result<BuildStats, BuildError> {
+        self.begin(mls, start, None)?;
+        while !self.grow(mls, usize::MAX) {}
+        Ok(self.stats)
+    }
+
+    /// Start a growth from the ground patch under `start`, kept to the
+    /// cells of `window` when one is given; [`grow`](Self::grow) does the
+    /// work in bounded slices. The previous graph is dropped.
+    pub fn begin(
+        &mut self,
+        mls: &MlsMap,
+        start: [f64; 3],
+        window: Option<Window>,
+    ) -> Result<(), BuildError> {
         self.nodes.clear();
         self.by_cell.clear();
         self.next_in_cell.clear();
         self.queue.clear();
+        self.finished = 0;
+        self.complete = false;
         self.stats = BuildStats::default();
         self.resolution = mls.params().resolution_m;
+        self.window = window;
         let (ix, iy) = mls.cell_of(start[0], start[1]);
         let no_start = BuildError::NoStartPatch {
             x: start[0],
             y: start[1],
             z: start[2],
         };
+        if !self.in_window(ix, iy) {
+            return Err(no_start);
+        }
         let Some(p) = ground_patch(mls.cell(ix, iy), start[2] as f32, self.params.max_step_m)
         else {
             return Err(no_start);
         };
         let first = self.add_node(ix, iy, p.mean).ok_or(no_start)?;
         self.queue.push_back(first);
-        while let Some(i) = self.queue.pop_front() {
-            self.classify(mls, i);
-            let n = self.nodes[i as usize];
-            if !n.class.is_drivable() {
-                continue;
-            }
-            for (k, (dx, dy)) in NEIGHBOURS.iter().enumerate() {
-                let (jx, jy) = (n.ix + dx, n.iy + dy);
-                let cell = mls.cell(jx, jy);
-                let Some(q) = ground_patch(cell, n.patch_z, self.params.max_step_m) else {
-                    if !occupied_near(cell, n.patch_z, &self.params) {
-                        self.nodes[i as usize].touches_unobserved = true;
-                    }
-                    continue;
-                };
-                let j = match self.find(jx, jy, q.mean) {
-                    Some(j) => j,
-                    None => match self.add_node(jx, jy, q.mean) {
-                        Some(j) => {
-                            self.queue.push_back(j);
-                            j
-                        }
-                        None => {
-                            self.stats.full = true;
-                            continue;
-                        }
-                    },
-                };
-                self.nodes[i as usize].neighbours[k] = j;
-                self.nodes[j as usize].neighbours[(k + 4) % 8] = i;
+        Ok(())
+    }
+
+    /// Classify and expand up to `units` nodes (or set the final classes
+    /// of as many); true once the graph is complete. `mls` must be the map
+    /// the growth began on, unchanged.
+    pub fn grow(&mut self, mls: &MlsMap, units: usize) -> bool {
+        let mut left = units.max(1);
+        while left > 0 && !self.complete {
+            left -= 1;
+            if let Some(i) = self.queue.pop_front() {
+                self.expand(mls, i);
+            } else if self.finished < self.nodes.len() {
+                self.finish_class(self.finished);
+                self.finished += 1;
+            } else {
+                self.count_classes();
+                self.complete = true;
             }
         }
-        self.finish_classes();
-        Ok(self.stats)
+        self.complete
+    }
+
+    /// Whether the last growth is complete.
+    pub fn is_complete(&self) -> bool {
+        self.complete
+    }
+
+    fn in_window(&self, ix: i32, iy: i32) -> bool {
+        self.window
+            .is_none_or(|w| ix >= w.min.0 && iy >= w.min.1 && ix <= w.max.0 && iy <= w.max.1)
+    }
+
+    /// Classify node `i` and link it to its neighbours, queueing new ones.
+    fn expand(&mut self, mls: &MlsMap, i: u32) {
+        self.classify(mls, i);
+        let n = self.nodes[i as usize];
+        if !n.class.is_drivable() {
+            return;
+        }
+        for (k, (dx, dy)) in NEIGHBOURS.iter().enumerate() {
+            let (jx, jy) = (n.ix + dx, n.iy + dy);
+            if !self.in_window(jx, jy) {
+                continue;
+            }
+            let cell = mls.cell(jx, jy);
+            let Some(q) = ground_patch(cell, n.patch_z, self.params.max_step_m) else {
+                if !occupied_near(cell, n.patch_z, &self.params) {
+                    self.nodes[i as usize].touches_unobserved = true;
+                }
+                continue;
+            };
+            let j = match self.find(jx, jy, q.mean) {
+                Some(j) => j,
+                None => match self.add_node(jx, jy, q.mean) {
+                    Some(j) => {
+                        self.queue.push_back(j);
+                        j
+                    }
+                    None => {
+                        self.stats.full = true;
+                        continue;
+                    }
+                },
+            };
+            self.nodes[i as usize].neighbours[k] = j;
+            self.nodes[j as usize].neighbours[(k + 4) % 8] = i;
+        }
     }
 
     fn find(&self, ix: i32, iy: i32, patch_z: f32) -> Option<u32> {
@@ -360,25 +459,27 @@ impl TravMap {
         false
     }
 
-    /// Frontier and explorable from the neighbourhoods; the counts.
-    fn finish_classes(&mut self) {
-        for i in 0..self.nodes.len() {
-            let n = self.nodes[i];
-            if n.class != TravClass::Traversable {
-                continue;
-            }
-            let near_unknown = n
-                .neighbours
-                .iter()
-                .any(|&j| j != NONE && self.nodes[j as usize].class == TravClass::Unknown);
-            self.nodes[i].class = if n.touches_unobserved {
-                TravClass::Frontier
-            } else if near_unknown {
-                TravClass::Explorable
-            } else {
-                TravClass::Traversable
-            };
+    /// Frontier or explorable for node `i`, from its neighbourhood.
+    fn finish_class(&mut self, i: usize) {
+        let n = self.nodes[i];
+        if n.class != TravClass::Traversable {
+            return;
         }
+        let near_unknown = n
+            .neighbours
+            .iter()
+            .any(|&j| j != NONE && self.nodes[j as usize].class == TravClass::Unknown);
+        self.nodes[i].class = if n.touches_unobserved {
+            TravClass::Frontier
+        } else if near_unknown {
+            TravClass::Explorable
+        } else {
+            TravClass::Traversable
+        };
+    }
+
+    /// The counts of a complete graph.
+    fn count_classes(&mut self) {
         let mut s = BuildStats {
             nodes: self.nodes.len(),
             full: self.stats.full,

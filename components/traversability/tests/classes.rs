@@ -2,7 +2,7 @@
 //! unknown, explorable, frontier, and two levels over each other.
 
 use speleo_mapping::mls::{MlsMap, MlsParams};
-use speleo_traversability::{TravClass, TravMap, TravParams, NONE};
+use speleo_traversability::{TravClass, TravMap, TravParams, Window, NONE};
 
 /// Points every 5 cm over `[x0, x1) x [y0, y1)` at height `z(x, y)`.
 fn surface(m: &mut MlsMap, x: (f64, f64), y: (f64, f64), z: impl Fn(f64, f64) -> f64) {
@@ -210,4 +210,41 @@ fn the_same_map_gives_the_same_graph_and_a_full_graph_says_so() {
         small.build(&m, [30.0, 3.0, 0.0]).is_err(),
         "no ground at the start"
     );
+}
+
+#[test]
+fn growth_in_slices_gives_the_whole_build_and_a_window_keeps_it_in() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 6.0), (0.0, 4.0), |x, y| {
+        0.05 * (x * 3.0).sin() + 0.03 * y
+    });
+    block(&mut m, (2.0, 2.3), (1.0, 1.3), (0.0, 0.5));
+    let whole = build(&m, [3.0, 3.0, 0.09]);
+    let mut t = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    t.begin(&m, [3.0, 3.0, 0.09], None)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut slices = 0;
+    while !t.grow(&m, 7) {
+        slices += 1;
+        assert!(!t.is_complete());
+    }
+    assert!(slices > 100, "{slices} slices");
+    assert_eq!(t.nodes(), whole.nodes());
+    assert_eq!(t.stats(), whole.stats());
+    // A 2 m window around the start: 2 m square of cells, nothing outside,
+    // and its edge is not taken for unobserved space.
+    let w = Window::around(3.0, 3.0, 1.0, 0.1);
+    t.begin(&m, [3.0, 3.0, 0.09], Some(w))
+        .unwrap_or_else(|e| panic!("{e}"));
+    while !t.grow(&m, 50) {}
+    let s = t.stats();
+    assert!(s.nodes > 300 && s.nodes <= w.cells(), "{s:?}");
+    assert!(t
+        .nodes()
+        .iter()
+        .all(|n| n.ix >= w.min.0 && n.ix <= w.max.0 && n.iy >= w.min.1 && n.iy <= w.max.1));
+    assert_eq!(class_at(&t, 2.05, 3.0, 0.09), Some(TravClass::Traversable));
+    assert!(t
+        .begin(&m, [5.5, 3.0, 0.0], Some(w))
+        .is_err_and(|e| e.to_string().contains("no ground patch")));
 }

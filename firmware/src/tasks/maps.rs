@@ -12,7 +12,6 @@
 //! region around the rover. A rebuild is cut into the same steps as any
 //! insertion, so keeping the region costs no longer step than mapping.
 
-use speleo_mapping::mls::{MlsMap, MlsStats};
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_slam::lie::{log_so3, Pose};
 
@@ -48,9 +47,6 @@ struct Cursor {
 }
 
 pub struct MapsTask {
-    /// The map that serves, and the one being rebuilt.
-    maps: [MlsMap; 2],
-    active: usize,
     /// Keyframes in the serving map and the pose each went in at.
     inserted: Vec<Pose>,
     /// A keyframe part-way into the serving map.
@@ -82,7 +78,8 @@ pub struct MapsTask {
 }
 
 impl MapsTask {
-    /// The task for `keyframes` keyframes, as `[maps]` configures it.
+    /// The task for `keyframes` keyframes, as `[maps]` configures it; the
+    /// maps themselves are the bus's (`SurfaceMaps::new(cfg.mls_params())`).
     pub fn new(cfg: &MapsConfig, keyframes: usize) -> Result<Self, speleo_mapping::ParamsError> {
         let params = cfg.mls_params();
         let points_per_step = cfg.points_per_step.max(1);
@@ -96,8 +93,6 @@ impl MapsTask {
             region: None,
             bounded: false,
             since_rebuild: 0,
-            maps: [MlsMap::new(params.clone())?, MlsMap::new(params)?],
-            active: 0,
             inserted: Vec::with_capacity(keyframes),
             adding: None,
             rebuilding: None,
@@ -109,20 +104,6 @@ impl MapsTask {
             points_per_step,
             counters: MapsCounters::default(),
         })
-    }
-
-    /// The map that serves queries.
-    pub fn mls(&self) -> &MlsMap {
-        &self.maps[self.active]
-    }
-
-    pub fn stats(&self) -> MlsStats {
-        self.mls().stats()
-    }
-
-    /// Both maps' fixed memory.
-    pub fn memory_bytes(&self) -> usize {
-        self.maps.iter().map(|m| m.stats().memory_bytes).sum()
     }
 
     /// Whether some keyframe in the serving map has moved beyond the
@@ -138,13 +119,17 @@ impl MapsTask {
 
     /// Insert the next part of keyframe `c.k` into map `m`; returns the
     /// cursor to go on from, or `None` when the keyframe is done.
-    fn insert_part(&mut self, bus: &Bus, m: usize, c: Cursor) -> Option<Cursor> {
+    fn insert_part(&mut self, bus: &mut Bus, m: usize, c: Cursor) -> Option<Cursor> {
         let store = &bus.keyframe_clouds;
         let pose = *store.pose(c.k)?;
         self.scratch.clear();
         let cloud = store.cloud(c.k);
         let n = cloud.len();
-        let region = if m == self.active { None } else { self.region };
+        let region = if m == bus.surface.active() {
+            None
+        } else {
+            self.region
+        };
         let r2 = self.keep_radius_m * self.keep_radius_m;
         let mut taken = 0;
         for p in cloud.skip(c.point).take(self.points_per_step) {
@@ -158,7 +143,7 @@ impl MapsTask {
             }
             self.scratch.push([v.x, v.y, v.z]);
         }
-        let stats = self.maps[m].insert_points(&self.scratch);
+        let stats = bus.surface.map_mut(m).insert_points(&self.scratch);
         self.counters.points_inserted += stats.inserted;
         let next = c.point + taken;
         (next < n).then_some(Cursor {
@@ -168,12 +153,11 @@ impl MapsTask {
     }
 
     /// One bounded unit of work; false when there is none.
-    fn work(&mut self, bus: &Bus) -> bool {
-        let store = &bus.keyframe_clouds;
+    fn work(&mut self, bus: &mut Bus) -> bool {
         // A re-projection under way: the next part into the other map.
         if let Some(c) = self.rebuilding {
-            let spare = 1 - self.active;
-            let Some(pose) = store.pose(c.k) else {
+            let spare = 1 - bus.surface.active();
+            let Some(pose) = bus.keyframe_clouds.pose(c.k) else {
                 return false;
             };
             if c.point == 0 {
@@ -196,7 +180,7 @@ impl MapsTask {
                 }),
                 None => {
                     // Complete: the rebuilt map serves.
-                    self.active = spare;
+                    bus.surface.swap();
                     std::mem::swap(&mut self.inserted, &mut self.rebuilt);
                     self.rebuilt.clear();
                     self.adding = None;
@@ -210,7 +194,7 @@ impl MapsTask {
         }
         // A keyframe part-way in.
         if let Some(c) = self.adding {
-            self.adding = self.insert_part(bus, self.active, c);
+            self.adding = self.insert_part(bus, bus.surface.active(), c);
             if self.adding.is_none() {
                 self.counters.keyframes_inserted += 1;
                 self.since_rebuild += 1;
@@ -218,18 +202,19 @@ impl MapsTask {
             return true;
         }
         // The map is full: rebuild it from the region around the rover.
-        if self.mls().stats().cells >= self.keep_cells && self.since_rebuild > 0 {
+        if bus.surface.stats().cells >= self.keep_cells && self.since_rebuild > 0 {
             self.bounded = true;
             self.counters.regions_kept += 1;
-            self.start_rebuild(store);
+            self.start_rebuild(bus);
             return true;
         }
+        let store = &bus.keyframe_clouds;
         // The graph moved: re-project everything if a keyframe moved far.
         if store.generation() != self.generation_seen {
             self.generation_seen = store.generation();
             if self.moved(bus) {
                 self.counters.reprojections_started += 1;
-                self.start_rebuild(store);
+                self.start_rebuild(bus);
                 return true;
             }
         }
@@ -240,7 +225,8 @@ impl MapsTask {
                 return false;
             };
             push_bounded(&mut self.inserted, *pose);
-            self.adding = self.insert_part(bus, self.active, Cursor { k, point: 0 });
+            let active = bus.surface.active();
+            self.adding = self.insert_part(bus, active, Cursor { k, point: 0 });
             if self.adding.is_none() {
                 self.counters.keyframes_inserted += 1;
                 self.since_rebuild += 1;
@@ -254,13 +240,15 @@ impl MapsTask {
 impl MapsTask {
     /// Start inserting every keyframe again into the spare map, keeping to
     /// the region around the newest keyframe once the maps are bounded.
-    fn start_rebuild(&mut self, store: &crate::keyframe_clouds::KeyframeClouds) {
+    fn start_rebuild(&mut self, bus: &mut Bus) {
+        let store = &bus.keyframe_clouds;
         let newest = store.ready().checked_sub(1).and_then(|k| store.pose(k));
         self.region = match newest {
             Some(p) if self.bounded => Some([p.t.x, p.t.y]),
             _ => None,
         };
-        self.maps[1 - self.active].clear();
+        let spare = 1 - bus.surface.active();
+        bus.surface.map_mut(spare).clear();
         self.rebuilt.clear();
         self.rebuilding = Some(Cursor { k: 0, point: 0 });
     }
@@ -290,6 +278,7 @@ impl Task<Bus> for MapsTask {
 mod tests {
     use super::*;
     use crate::keyframe_clouds::KeyframeClouds;
+    use crate::surface_maps::SurfaceMaps;
     use nalgebra::{Matrix3, Vector3};
 
     fn at(x: f64, z: f64) -> Pose {
@@ -307,7 +296,7 @@ mod tests {
         store.commit();
     }
 
-    fn run_to_idle(t: &mut MapsTask, bus: &Bus) -> usize {
+    fn run_to_idle(t: &mut MapsTask, bus: &mut Bus) -> usize {
         let mut steps = 0;
         while t.work(bus) {
             steps += 1;
@@ -316,9 +305,10 @@ mod tests {
         steps
     }
 
-    fn height(t: &MapsTask, x: f64) -> Option<f32> {
-        let (ix, iy) = t.mls().cell_of(x, 0.5);
-        t.mls().cell(ix, iy).first().map(|p| p.mean)
+    fn height(bus: &Bus, x: f64) -> Option<f32> {
+        let m = bus.surface.serving();
+        let (ix, iy) = m.cell_of(x, 0.5);
+        m.cell(ix, iy).first().map(|p| p.mean)
     }
 
     #[test]
@@ -333,35 +323,36 @@ mod tests {
             ..MapsConfig::default()
         };
         let mut t = MapsTask::new(&cfg, 4).unwrap_or_else(|e| panic!("{e}"));
+        bus.surface = SurfaceMaps::new(cfg.mls_params()).unwrap_or_else(|e| panic!("{e}"));
         floor(&mut bus.keyframe_clouds);
         floor(&mut bus.keyframe_clouds);
         // No pose yet: nothing to do.
-        assert_eq!(run_to_idle(&mut t, &bus), 0);
+        assert_eq!(run_to_idle(&mut t, &mut bus), 0);
         bus.keyframe_clouds.set_poses([at(0.0, 0.0), at(2.0, 0.0)]);
         // 2 x 2500 points, 1000 a step.
-        assert_eq!(run_to_idle(&mut t, &bus), 6);
+        assert_eq!(run_to_idle(&mut t, &mut bus), 6);
         assert_eq!(t.counters.keyframes_inserted, 2);
         assert_eq!(t.counters.points_inserted, 5000);
-        assert!((height(&t, 2.5).unwrap_or(f32::NAN) + 0.2).abs() < 1e-3);
+        assert!((height(&bus, 2.5).unwrap_or(f32::NAN) + 0.2).abs() < 1e-3);
         // A small correction: no re-projection.
         bus.keyframe_clouds.set_poses([at(0.0, 0.0), at(2.0, 0.01)]);
-        assert_eq!(run_to_idle(&mut t, &bus), 0);
+        assert_eq!(run_to_idle(&mut t, &mut bus), 0);
         // A loop closure lifts the second keyframe 0.3 m: every keyframe
         // goes in again, into the other map, which then serves.
         bus.keyframe_clouds.set_poses([at(0.0, 0.0), at(2.0, 0.3)]);
-        let before = t.active;
-        assert_eq!(run_to_idle(&mut t, &bus), 7);
+        let before = bus.surface.active();
+        assert_eq!(run_to_idle(&mut t, &mut bus), 7);
         assert_eq!(t.counters.reprojections, 1);
-        assert_ne!(t.active, before);
-        assert!((height(&t, 2.5).unwrap_or(f32::NAN) - 0.1).abs() < 1e-3);
-        assert!((height(&t, 0.5).unwrap_or(f32::NAN) + 0.2).abs() < 1e-3);
+        assert_ne!(bus.surface.active(), before);
+        assert!((height(&bus, 2.5).unwrap_or(f32::NAN) - 0.1).abs() < 1e-3);
+        assert!((height(&bus, 0.5).unwrap_or(f32::NAN) + 0.2).abs() < 1e-3);
         // A third keyframe arrives and goes into the serving map.
         floor(&mut bus.keyframe_clouds);
         bus.keyframe_clouds
             .set_poses([at(0.0, 0.0), at(2.0, 0.3), at(4.0, 0.0)]);
-        run_to_idle(&mut t, &bus);
+        run_to_idle(&mut t, &mut bus);
         assert_eq!(t.counters.keyframes_inserted, 3);
-        assert!((height(&t, 4.5).unwrap_or(f32::NAN) + 0.2).abs() < 1e-3);
+        assert!((height(&bus, 4.5).unwrap_or(f32::NAN) + 0.2).abs() < 1e-3);
     }
 
     #[test]
@@ -380,22 +371,23 @@ mod tests {
             ..MapsConfig::default()
         };
         let mut t = MapsTask::new(&cfg, 10).unwrap_or_else(|e| panic!("{e}"));
+        bus.surface = SurfaceMaps::new(cfg.mls_params()).unwrap_or_else(|e| panic!("{e}"));
         let mut poses = Vec::new();
         for k in 0..10 {
             floor(&mut bus.keyframe_clouds);
             poses.push(at(3.0 * k as f64, 0.0));
             bus.keyframe_clouds.set_poses(poses.iter().copied());
-            run_to_idle(&mut t, &bus);
-            let s = t.stats();
+            run_to_idle(&mut t, &mut bus);
+            let s = bus.surface.stats();
             assert!(s.cells <= 500 && s.dropped_points == 0, "{s:?}");
             // The newest keyframe's floor is always in the serving map.
-            assert!(height(&t, 3.0 * k as f64 + 0.5).is_some(), "keyframe {k}");
+            assert!(height(&bus, 3.0 * k as f64 + 0.5).is_some(), "keyframe {k}");
         }
         assert_eq!(t.counters.regions_kept, 4, "{:?}", t.counters);
         assert!(t.counters.points_outside_region > 0);
         // The first keyframe's floor is long gone; the last two stay.
-        assert!(height(&t, 0.5).is_none());
-        assert!(height(&t, 24.5).is_some() && height(&t, 27.5).is_some());
+        assert!(height(&bus, 0.5).is_none());
+        assert!(height(&bus, 24.5).is_some() && height(&bus, 27.5).is_some());
         assert_eq!(t.counters.keyframes_inserted, 10);
     }
 }

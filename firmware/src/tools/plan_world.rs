@@ -249,13 +249,9 @@ pub fn plan_world(a: &WorldPlanArgs<'_>) -> Result<WorldPlanReport, Error> {
     };
     let (s_node, g_node) = (find(start, "start")?, find(goal, "goal")?);
     let started = Instant::now();
-    let lat = SurfaceLattice::new(
-        &trav,
-        &mls,
-        &prims,
-        SurfaceParams::default(),
-        (g_node, angle_to_bin(goal[3], prims.angles)),
-    )?;
+    let cells = trav.cell_span();
+    let mut lat = SurfaceLattice::new(trav, &prims, SurfaceParams::default(), cells)?;
+    lat.prepare_all(&mls, (g_node, angle_to_bin(goal[3], prims.angles)))?;
     let lattice_s = started.elapsed().as_secs_f64();
     let s_state = lat.state(s_node, angle_to_bin(start[3], prims.angles));
     let timed = search_timed(
