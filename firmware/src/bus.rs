@@ -83,6 +83,24 @@ pub struct WheelCommand {
     pub done: bool,
 }
 
+/// Poses a published plan holds at most.
+pub const PLAN_POSES: usize = 512;
+
+/// The planner's latest plan: its states' ground positions and headings
+/// in the map frame, start first.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlanMsg {
+    /// Query number (1 for the first).
+    pub query: u64,
+    /// Travel time, ms.
+    pub cost_ms: u32,
+    /// Proven bound on cost over the optimum (1: optimal).
+    pub eps: f32,
+    pub optimal: bool,
+    /// x, y, z, yaw.
+    pub poses: heapless::Vec<[f32; 4], PLAN_POSES>,
+}
+
 /// What the health task concluded.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct HealthReport {
@@ -206,6 +224,8 @@ pub struct Bus {
     /// One-cell maps until the mission sizes them.
     pub surface: crate::surface_maps::SurfaceMaps,
     pub command: Latest<WheelCommand>,
+    /// Written by the planner.
+    pub plan: Latest<PlanMsg>,
     /// Frames to put on the CAN bus at the start of the next frame.
     pub can_tx: Fifo<CanFrame, 32>,
     /// Xbus messages for the IMU, sent at the start of the next frame.
@@ -239,6 +259,7 @@ impl Bus {
             keyframe_clouds: crate::keyframe_clouds::KeyframeClouds::new(0, 0),
             surface: crate::surface_maps::SurfaceMaps::empty(),
             command: Latest::new(),
+            plan: Latest::new(),
             can_tx: Fifo::new(),
             imu_tx: Fifo::new(),
             imu_config: ConfigState::GoingToConfig,

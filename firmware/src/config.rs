@@ -8,7 +8,9 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 mod maps;
+mod planner;
 pub use maps::MapsConfig;
+pub use planner::PlannerConfig;
 
 #[derive(Debug, Error)]
 pub enum ConfigError {
@@ -42,6 +44,7 @@ pub struct Config {
     pub lidar: LidarConfig,
     pub slam: SlamConfig,
     pub maps: MapsConfig,
+    pub planner: PlannerConfig,
     pub health: HealthConfig,
     pub record: RecordConfig,
     pub devices: DevicesConfig,
@@ -667,6 +670,7 @@ impl Config {
             });
         }
         self.maps.validate()?;
+        self.planner.validate(self.maps.mls_resolution_m)?;
         let sl = &self.slam;
         range(
             "slam.keyframe_capacity",

@@ -9,6 +9,7 @@ pub mod keyframe_clouds;
 pub mod maps_output;
 pub mod mission;
 pub mod modes;
+pub mod planner_figures;
 pub mod record;
 pub mod report;
 pub mod schedule_table;

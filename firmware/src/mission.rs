@@ -25,7 +25,7 @@ use crate::slam_figures::{SlamFigures, TruthTrack};
 use crate::tasks::recorder::mode_name;
 use crate::tasks::{
     control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, maps, odometry,
-    recorder, slam,
+    planner, recorder, slam,
 };
 
 /// How long the mission runs.
@@ -87,6 +87,7 @@ pub struct MissionResult {
     pub maps: Option<MapsResult>,
     /// The report's `maps` section, once the run's requests are done.
     pub maps_figures: Option<crate::maps_output::MapsFigures>,
+    pub planner: Option<crate::planner_figures::PlannerFigures>,
 }
 
 /// The maps at the end of a run: the MLS map's figures, and the keyframe
@@ -106,6 +107,8 @@ pub enum MissionError {
     Executive(#[from] ExecutiveError),
     #[error("maps: {0}")]
     Maps(#[from] speleo_mapping::ParamsError),
+    #[error("planner: {0}")]
+    Planner(String),
     #[error("lidar.calibration: {0}")]
     Calibration(#[from] speleo_hal::hdl32e::calib::CalibError),
 }
@@ -136,6 +139,39 @@ fn build_lidar_driver(cfg: &Config) -> Result<lidar_driver::LidarDriver, Mission
         FrameAssembler::new(decoder, l.cut_angle_deg, cap),
         cap,
     ))
+}
+
+/// The planner task, or one that never plans when planning is off.
+fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, MissionError> {
+    let res = cfg.maps.mls_resolution_m;
+    let prims = if cfg.planner.mprim.is_empty() {
+        speleo_planner::primitives::generate(&speleo_planner::primitives::PrimitiveSpec {
+            resolution_m: res,
+            ..Default::default()
+        })
+    } else {
+        let path = &cfg.planner.mprim;
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| MissionError::Planner(format!("cannot read {path}: {e}")))?;
+        speleo_planner::mprim::parse(&text)
+            .map_err(|e| MissionError::Planner(format!("{path}: {e}")))?
+    };
+    let (pc, route) = if on {
+        (cfg.planner.clone(), &cfg.control.path[..])
+    } else {
+        let idle = crate::config::PlannerConfig {
+            max_nodes: 16,
+            window_m: 2.0,
+            goal_ahead_m: 1.0,
+            ..cfg.planner.clone()
+        };
+        (idle, &[][..])
+    };
+    // base_link is at the wheel hubs, which the legs hold at 0.8 to 1 times
+    // their length over the ground.
+    let base_height_m = 0.9 * cfg.rover.wheel_radius_m;
+    planner::PlannerTask::new(&pc, &prims, res, route, cfg.control.looped, base_height_m)
+        .map_err(MissionError::Planner)
 }
 
 /// Park this thread once so that everything the standard library creates
@@ -214,6 +250,8 @@ pub fn run<C: FrameClock>(
             0,
         )?
     };
+    let planner_on = maps_on && cfg.planner.enabled;
+    let mut t_plan = build_planner(cfg, planner_on)?;
     let mut t_control = control::ControlTask::new(
         follower(cfg),
         SkidSteer {
@@ -257,6 +295,7 @@ pub fn run<C: FrameClock>(
     let _ = tasks.push(&mut t_odo);
     let _ = tasks.push(&mut t_slam);
     let _ = tasks.push(&mut t_maps);
+    let _ = tasks.push(&mut t_plan);
     let _ = tasks.push(&mut t_control);
     let _ = tasks.push(&mut t_out);
     let _ = tasks.push(&mut t_health);
@@ -404,6 +443,8 @@ pub fn run<C: FrameClock>(
         ),
         mount: mount_pose(cfg),
     });
+    let planner =
+        planner_on.then(|| crate::planner_figures::figures(&t_plan, cfg.planner.max_nodes));
     let t = tap.borrow();
     Ok(MissionResult {
         frames,
@@ -423,6 +464,7 @@ pub fn run<C: FrameClock>(
         slam,
         maps,
         maps_figures: None,
+        planner,
         recorder: t.counters,
         counters: bus.counters,
     })

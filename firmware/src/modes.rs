@@ -217,6 +217,18 @@ fn print_summary(r: &MissionResult) {
             }
         );
     }
+    if let Some(p) = &r.planner {
+        let ms = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} ms"));
+        eprintln!(
+            "planner: {} queries, {} solved ({} optimal), first plan median {}, optimum median {}, {} expansions",
+            p.calls,
+            p.solved,
+            p.optimal,
+            ms(p.first_solution_ms_median),
+            ms(p.optimal_ms_median),
+            p.expansions
+        );
+    }
 }
 
 /// The maps' end-of-run requests (mesh, scans, the report's figures).

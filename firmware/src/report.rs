@@ -23,6 +23,8 @@ pub struct Report<'a> {
     pub slam: Option<&'a crate::slam_figures::SlamFigures>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub maps: Option<&'a crate::maps_output::MapsFigures>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub planner: Option<&'a crate::planner_figures::PlannerFigures>,
 }
 
 #[derive(Serialize)]
@@ -103,6 +105,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         replay,
         slam: r.slam.as_ref(),
         maps: r.maps_figures.as_ref(),
+        planner: r.planner.as_ref(),
     }
 }
 

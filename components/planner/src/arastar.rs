@@ -71,6 +71,18 @@ pub enum Progress {
 const NONE: u32 = u32::MAX;
 /// Fixed-point unit of `eps`.
 const MILLI: u64 = 1000;
+/// OPEN entries one unit of a round's end visits (about one expansion's
+/// time).
+const ENTRIES_PER_UNIT: usize = 64;
+
+/// Where the end of a round is: the bound over OPEN, then the new keys,
+/// then the heap order, each from entry `at`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Closing {
+    Bound { at: usize, lower: u64, cost: u32 },
+    Rekey { at: usize, proven: u32, cost: u32 },
+    Heapify { at: usize, proven: u32, cost: u32 },
+}
 
 #[derive(Clone, Copy, Debug, Default)]
 struct Entry {
@@ -119,6 +131,9 @@ pub struct AraStar {
     start: u32,
     step_milli: u32,
     running: bool,
+    /// Between rounds: the work on OPEN that a round's end needs, done in
+    /// slices so that no step runs longer than its quantum.
+    closing: Option<Closing>,
     /// What a step says once the query is over.
     finished: Progress,
     stats: AraStats,
@@ -144,6 +159,7 @@ impl AraStar {
             start: 0,
             step_milli: 200,
             running: false,
+            closing: None,
             finished: Progress::Idle,
             stats: AraStats::default(),
         }
@@ -188,6 +204,7 @@ impl AraStar {
         self.goal = goal;
         let n = self.g.len();
         self.running = (start as usize) < n && (goal as usize) < n;
+        self.closing = None;
         self.finished = Progress::NoPath;
         if self.running {
             self.touch(start);
@@ -196,19 +213,30 @@ impl AraStar {
         }
     }
 
-    /// Up to `expansions` expansions, or fewer if a round ends first.
-    pub fn step<L: Lattice>(&mut self, lat: &L, expansions: u32) -> Progress {
+    /// Up to `units` units of work: expansions, or slices of
+    /// [`ENTRIES_PER_UNIT`] OPEN entries at a round's end; fewer if a round
+    /// ends first.
+    pub fn step<L: Lattice>(&mut self, lat: &L, units: u32) -> Progress {
         if !self.running {
             return self.finished;
         }
-        for _ in 0..expansions {
+        for _ in 0..units {
+            if let Some(c) = self.closing {
+                if let Some(p) = self.close(lat, c) {
+                    return p;
+                }
+                continue;
+            }
             let goal_g = self.g_of(self.goal);
             let done = match self.heap.first() {
                 None => true,
                 Some(top) => goal_g != INFINITE_COST && goal_g as u64 * MILLI <= top.f,
             };
             if done {
-                return self.end_round(lat);
+                if let Some(p) = self.end_round() {
+                    return p;
+                }
+                continue;
             }
             self.expand(lat);
         }
@@ -292,17 +320,21 @@ impl AraStar {
         self.succ = succ;
     }
 
-    /// The round is over: publish, then lower eps and start the next.
-    fn end_round<L: Lattice>(&mut self, lat: &L) -> Progress {
+    /// The round is over: the optimum at `eps = 1` (or no path), otherwise
+    /// OPEN takes INCONS and the bound over it begins.
+    fn end_round(&mut self) -> Option<Progress> {
         let cost = self.g_of(self.goal);
         if cost == INFINITE_COST {
             self.running = false;
-            return Progress::NoPath;
+            return Some(Progress::NoPath);
         }
         self.stats.rounds += 1;
         self.stats.cost = cost;
         if self.stats.expansions_to_first == 0 {
             self.stats.expansions_to_first = self.stats.expansions.max(1);
+        }
+        if self.stats.eps_milli <= MILLI as u32 {
+            return Some(self.optimal(cost));
         }
         // OPEN gets INCONS.
         self.round_id = self.round_id.wrapping_add(1).max(1);
@@ -315,53 +347,109 @@ impl AraStar {
         }
         self.incons = incons;
         self.incons.clear();
-        // A cheaper path would pass through a state of OPEN with g + h
-        // below the cost: the smallest such sum bounds the optimum (the
-        // ARA* paper's eps').
-        let lower = self
-            .heap
-            .iter()
-            .map(|e| {
-                let h = lat.heuristic(e.s);
-                if h == INFINITE_COST {
-                    u64::MAX
-                } else {
-                    self.g[e.s as usize] as u64 + h as u64
-                }
-            })
-            .min()
-            .unwrap_or(u64::MAX);
-        let eps = self.stats.eps_milli;
-        let bound = if lower == 0 || lower == u64::MAX {
-            if lower == u64::MAX {
-                MILLI
-            } else {
-                u64::MAX
-            }
-        } else {
-            (cost as u64 * MILLI).div_ceil(lower)
-        };
-        let proven = (eps as u64).min(bound).max(MILLI) as u32;
-        if eps <= MILLI as u32 || lower >= cost as u64 {
-            self.running = false;
-            self.finished = Progress::Idle;
-            self.stats.eps_milli = MILLI as u32;
-            return Progress::Optimal { cost };
-        }
-        // The next round: eps lowered by the step, or to the bound if that
-        // is lower already.
-        let next = eps.saturating_sub(self.step_milli).min(proven);
-        self.stats.eps_milli = next.max(MILLI as u32);
-        for i in 0..self.heap.len() {
-            let s = self.heap[i].s;
-            self.heap[i] = self.key(lat, s);
-        }
-        for i in (0..self.heap.len() / 2).rev() {
-            self.sift_down(i);
-        }
-        Progress::Solution {
-            eps_milli: proven,
+        self.closing = Some(Closing::Bound {
+            at: 0,
+            lower: u64::MAX,
             cost,
+        });
+        None
+    }
+
+    fn optimal(&mut self, cost: u32) -> Progress {
+        self.running = false;
+        self.closing = None;
+        self.finished = Progress::Idle;
+        self.stats.eps_milli = MILLI as u32;
+        Progress::Optimal { cost }
+    }
+
+    /// One slice of a round's end; the published solution once it is done.
+    fn close<L: Lattice>(&mut self, lat: &L, c: Closing) -> Option<Progress> {
+        let n = self.heap.len();
+        match c {
+            // A cheaper path would pass through a state of OPEN with g + h
+            // below the cost: the smallest such sum bounds the optimum (the
+            // ARA* paper's eps').
+            Closing::Bound { at, lower, cost } => {
+                let to = (at + ENTRIES_PER_UNIT).min(n);
+                let mut lower = lower;
+                for e in &self.heap[at..to] {
+                    let h = lat.heuristic(e.s);
+                    if h != INFINITE_COST {
+                        lower = lower.min(self.g[e.s as usize] as u64 + h as u64);
+                    }
+                }
+                if to < n {
+                    self.closing = Some(Closing::Bound {
+                        at: to,
+                        lower,
+                        cost,
+                    });
+                    return None;
+                }
+                let eps = self.stats.eps_milli;
+                let bound = match lower {
+                    u64::MAX => MILLI,
+                    0 => u64::MAX,
+                    l => (cost as u64 * MILLI).div_ceil(l),
+                };
+                let proven = (eps as u64).min(bound).max(MILLI) as u32;
+                if lower >= cost as u64 {
+                    return Some(self.optimal(cost));
+                }
+                // The next round: eps lowered by the step, or to the bound
+                // if that is lower already.
+                let next = eps.saturating_sub(self.step_milli).min(proven);
+                self.stats.eps_milli = next.max(MILLI as u32);
+                self.closing = Some(Closing::Rekey {
+                    at: 0,
+                    proven,
+                    cost,
+                });
+                None
+            }
+            Closing::Rekey { at, proven, cost } => {
+                let to = (at + ENTRIES_PER_UNIT).min(n);
+                for i in at..to {
+                    let s = self.heap[i].s;
+                    self.heap[i] = self.key(lat, s);
+                }
+                self.closing = Some(if to < n {
+                    Closing::Rekey {
+                        at: to,
+                        proven,
+                        cost,
+                    }
+                } else {
+                    Closing::Heapify {
+                        at: n / 2,
+                        proven,
+                        cost,
+                    }
+                });
+                None
+            }
+            // Sift down from the last parent to the root, a slice at a
+            // time: `at` parents are left.
+            Closing::Heapify { at, proven, cost } => {
+                let from = at.saturating_sub(ENTRIES_PER_UNIT);
+                for i in (from..at).rev() {
+                    self.sift_down(i);
+                }
+                if from > 0 {
+                    self.closing = Some(Closing::Heapify {
+                        at: from,
+                        proven,
+                        cost,
+                    });
+                    return None;
+                }
+                self.closing = None;
+                Some(Progress::Solution {
+                    eps_milli: proven,
+                    cost,
+                })
+            }
         }
     }
 

@@ -7,9 +7,12 @@
 //! each move takes the node's link in that direction, so the path stays on
 //! its level, climbs ramps and is refused where the link is missing (a
 //! wall, a step, unknown ground) or the node is not drivable. The body's
-//! footprint (the rectangle at every intermediate pose, precomputed per
-//! primitive as cell offsets) must stand over nodes of the same level with
-//! nothing in the body's height band above them; where every node of the
+//! footprint (the rectangle at every intermediate pose, precomputed once
+//! per primitive as cell offsets) must find nothing the map has seen in
+//! the body's height band over the support plane of the nearest path node,
+//! in any of its cells (unobserved cells are free: the path's nodes carry
+//! the rover). The map's occupied height intervals are copied per cell
+//! into a flat table when a query is prepared. Where every node of the
 //! path has room for the body's circumscribed circle (precomputed per
 //! node), the rectangle is not looked at.
 //!
@@ -77,11 +80,9 @@ struct SurfaceAction {
 enum Prep {
     /// No query (or the graph changed since).
     None,
-    /// Indexing nodes by cell, from this node on.
-    Index(usize),
-    /// The body's height band over each node.
-    Body(usize),
-    /// Room for the body's circle around each node.
+    /// Copying the map's intervals, from this cell on.
+    Solid(usize),
+    /// Room for the body over each node and its circle around it.
     Clear(usize),
     /// The cost-to-go, Dijkstra from the goal.
     CostToGo,
@@ -102,18 +103,24 @@ pub struct SurfaceLattice {
     actions: Vec<Vec<SurfaceAction>>,
     /// Per node: nothing in the body's height band over its ground.
     body_free: Vec<bool>,
-    /// Per node: every cell within the body's circumscribed circle (and a
-    /// cell's margin) has a body-free node at this level, so the body fits
-    /// here in any orientation and the oriented check can be skipped.
+    /// Per node: nothing in the body's band over this node's support plane
+    /// in any cell within the body's circumscribed circle (and a cell's
+    /// margin), so the body fits here in any orientation and the oriented
+    /// check can be skipped.
     clear: Vec<bool>,
+    /// Per node: squared distance (cells) to the nearest cell within that
+    /// circle with something in the body's band (`u16::MAX`: none).
+    blocked_d2: Vec<u16>,
+    /// Squared inscribed radius of the body, cells: a node with something
+    /// seen nearer collides in every orientation.
+    inscribed_d2: f64,
     heuristic: Vec<u32>,
-    /// First node of each cell of the nodes' bounding box, for O(1) cell
-    /// look-ups; `origin` is its lowest cell.
-    grid: Vec<u32>,
+    /// The map's occupied height intervals (min, max) in each cell of the
+    /// nodes' bounding box grown by the body's reach; NaN pairs are
+    /// unused. `origin` is its lowest cell.
+    solid: Vec<[f32; 2 * SOLID_PER_CELL]>,
     origin: (i32, i32),
     dims: (usize, usize),
-    /// Next node in the same cell.
-    next_in_cell: Vec<u32>,
     goal: (u32, u32),
     prep: Prep,
     /// Dijkstra's queue (at most one entry per link relaxed: 8 a node).
@@ -126,12 +133,16 @@ fn direction(dx: i32, dy: i32) -> Option<u8> {
     MOVES.iter().position(|&m| m == (dx, dy)).map(|k| k as u8)
 }
 
-/// Work units of each preparation phase: nodes indexed, nodes whose band
-/// is checked, nodes whose circle is checked, Dijkstra pops. Chosen so a
-/// unit of each costs about the same (a circle check looks at ~200 cells).
-const INDEX_PER_UNIT: usize = 64;
-const BODY_PER_UNIT: usize = 16;
-const POPS_PER_UNIT: usize = 4;
+/// Work units of each preparation phase: map cells copied, nodes whose
+/// circle is checked, Dijkstra pops. Chosen so that a unit of each costs
+/// about one expansion (~10 us on the lava tube; see the planner README).
+const SOLID_PER_UNIT: usize = 128;
+const ROOM_PER_UNIT: usize = 12;
+const POPS_PER_UNIT: usize = 96;
+
+/// Occupied intervals kept per cell; a cell with more patches has the rest
+/// merged into the last.
+pub const SOLID_PER_CELL: usize = 4;
 
 impl SurfaceLattice {
     /// The lattice over `trav` (whose graph may be grown later, through
@@ -154,6 +165,7 @@ impl SurfaceLattice {
         if n.saturating_mul(prims.angles as usize) >= u32::MAX as usize {
             return Err("too many states: lower max_nodes".into());
         }
+        let inscribed_d2 = (p.body_width_m / 2.0 / res).powi(2);
         let mut actions = vec![Vec::new(); prims.angles as usize];
         for prim in &prims.primitives {
             if let Some(a) = surface_action(prim, prims.angles, res, &p) {
@@ -168,11 +180,12 @@ impl SurfaceLattice {
             actions,
             body_free: Vec::with_capacity(n),
             clear: Vec::with_capacity(n),
+            blocked_d2: Vec::with_capacity(n),
+            inscribed_d2,
             heuristic: Vec::with_capacity(n),
-            grid: Vec::with_capacity(max_grid_cells),
+            solid: Vec::with_capacity(max_grid_cells),
             origin: (0, 0),
             dims: (0, 0),
-            next_in_cell: Vec::with_capacity(n),
             goal: (0, 0),
             prep: Prep::None,
             open: BinaryHeap::with_capacity(8 * n + 1),
@@ -220,35 +233,27 @@ impl SurfaceLattice {
         if goal.0 as usize >= n || goal.1 >= self.angles {
             return Err(format!("no goal state ({}, {})", goal.0, goal.1));
         }
-        let (mut x0, mut y0, mut x1, mut y1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
-        for nd in nodes {
-            x0 = x0.min(nd.ix);
-            y0 = y0.min(nd.iy);
-            x1 = x1.max(nd.ix);
-            y1 = y1.max(nd.iy);
-        }
+        let ((x0, y0), (x1, y1)) = grid_bounds(&self.trav, &self.p);
         let dims = ((x1 - x0 + 1) as usize, (y1 - y0 + 1) as usize);
-        if dims.0 * dims.1 > self.grid.capacity() {
+        if dims.0 * dims.1 > self.solid.capacity() {
             return Err(format!(
-                "the graph spans {} x {} cells, more than the {} the lattice was made for",
+                "the graph and the body's reach span {} x {} cells, more than the {} the lattice was made for",
                 dims.0,
                 dims.1,
-                self.grid.capacity()
+                self.solid.capacity()
             ));
         }
         self.origin = (x0, y0);
         self.dims = dims;
-        self.grid.clear();
-        self.grid.resize(dims.0 * dims.1, NONE);
-        self.next_in_cell.clear();
-        self.next_in_cell.resize(n, NONE);
+        self.solid.clear();
         self.body_free.clear();
         self.clear.clear();
+        self.blocked_d2.clear();
         self.heuristic.clear();
         self.heuristic.resize(n, INFINITE_COST);
         self.open.clear();
         self.goal = goal;
-        self.prep = Prep::Index(0);
+        self.prep = Prep::Solid(0);
         Ok(())
     }
 
@@ -258,9 +263,17 @@ impl SurfaceLattice {
         for _ in 0..units.max(1) {
             self.prep = match self.prep {
                 Prep::None | Prep::Ready => break,
-                Prep::Index(i) => self.index_nodes(i),
-                Prep::Body(i) => self.check_bands(mls, i),
-                Prep::Clear(i) => self.check_circle(i),
+                Prep::Solid(c) => self.copy_solid(mls, c),
+                Prep::Clear(i) => {
+                    let mut next = Prep::Clear(i);
+                    for k in i..i + ROOM_PER_UNIT {
+                        next = self.check_circle(k);
+                        if next == Prep::CostToGo {
+                            break;
+                        }
+                    }
+                    next
+                }
                 Prep::CostToGo => self.settle(),
             };
         }
@@ -274,49 +287,86 @@ impl SurfaceLattice {
         Ok(())
     }
 
+    /// Nodes with room for the body over them, and in every orientation
+    /// (once prepared).
+    pub fn room_counts(&self) -> (usize, usize) {
+        (
+            self.body_free.iter().filter(|&&b| b).count(),
+            self.clear.iter().filter(|&&b| b).count(),
+        )
+    }
+
+    /// What the preparation is doing: "none", "map", "room", "cost-to-go"
+    /// or "ready".
+    pub fn phase(&self) -> &'static str {
+        match self.prep {
+            Prep::None => "none",
+            Prep::Solid(_) => "map",
+            Prep::Clear(_) => "room",
+            Prep::CostToGo => "cost-to-go",
+            Prep::Ready => "ready",
+        }
+    }
+
     pub fn is_ready(&self) -> bool {
         self.prep == Prep::Ready
     }
 
-    fn index_nodes(&mut self, from: usize) -> Prep {
-        let nodes = self.trav.nodes();
-        let to = (from + INDEX_PER_UNIT).min(nodes.len());
-        for (i, nd) in nodes.iter().enumerate().take(to).skip(from) {
-            let c =
-                (nd.iy - self.origin.1) as usize * self.dims.0 + (nd.ix - self.origin.0) as usize;
-            self.next_in_cell[i] = self.grid[c];
-            self.grid[c] = i as u32;
-        }
-        if to < nodes.len() {
-            Prep::Index(to)
-        } else {
-            Prep::Body(0)
-        }
-    }
-
-    fn check_bands(&mut self, mls: &MlsMap, from: usize) -> Prep {
-        let nodes = self.trav.nodes();
-        let tp = self.trav.params();
-        let to = (from + BODY_PER_UNIT).min(nodes.len());
-        for nd in &nodes[from..to] {
-            let (lo, hi) = (
-                nd.ground_z + tp.ground_clearance_m,
-                nd.ground_z + tp.robot_height_m,
+    fn copy_solid(&mut self, mls: &MlsMap, from: usize) -> Prep {
+        let cells = self.dims.0 * self.dims.1;
+        let to = (from + SOLID_PER_UNIT).min(cells);
+        for c in from..to {
+            let (ix, iy) = (
+                self.origin.0 + (c % self.dims.0) as i32,
+                self.origin.1 + (c / self.dims.0) as i32,
             );
-            self.body_free.push(
-                !mls.cell(nd.ix, nd.iy)
-                    .iter()
-                    .any(|q| q.max >= lo && q.min <= hi),
-            );
+            let mut row = [f32::NAN; 2 * SOLID_PER_CELL];
+            for (k, q) in mls.cell(ix, iy).iter().enumerate() {
+                let at = 2 * k.min(SOLID_PER_CELL - 1);
+                if k < SOLID_PER_CELL {
+                    row[at] = q.min;
+                    row[at + 1] = q.max;
+                } else {
+                    row[at] = row[at].min(q.min);
+                    row[at + 1] = row[at + 1].max(q.max);
+                }
+            }
+            self.solid.push(row);
         }
-        if to < nodes.len() {
-            Prep::Body(to)
+        if to < cells {
+            Prep::Solid(to)
         } else {
             Prep::Clear(0)
         }
     }
 
-    /// Whether node `i` has room for the body in every orientation.
+    /// Whether the map has seen nothing in the body's height band over
+    /// `ground` in cell `(ix, iy)`.
+    fn band_free(&self, ix: i32, iy: i32, ground: f32) -> bool {
+        let (gx, gy) = (ix - self.origin.0, iy - self.origin.1);
+        if gx < 0 || gy < 0 || gx as usize >= self.dims.0 || gy as usize >= self.dims.1 {
+            // Beyond the body's reach from every node: never asked.
+            return true;
+        }
+        let tp = self.trav.params();
+        let (lo, hi) = (ground + tp.ground_clearance_m, ground + tp.robot_height_m);
+        let row = &self.solid[gy as usize * self.dims.0 + gx as usize];
+        // NaN (unused) pairs compare false: free.
+        row.chunks_exact(2).all(|iv| !(iv[1] >= lo && iv[0] <= hi))
+    }
+
+    /// Height of node `nd`'s support plane over the centre of cell
+    /// `(ix, iy)`.
+    fn plane_z(&self, nd: &speleo_traversability::Node, ix: i32, iy: i32) -> f32 {
+        let res = self.trav.resolution() as f32;
+        let [nx, ny, nz] = nd.normal;
+        let nz = nz.max(0.1);
+        let (dx, dy) = ((ix - nd.ix) as f32 * res, (iy - nd.iy) as f32 * res);
+        nd.ground_z - (nx * dx + ny * dy) / nz
+    }
+
+    /// Whether node `i` has room for the body over it, and in every
+    /// orientation around it.
     fn check_circle(&mut self, i: usize) -> Prep {
         let nodes = self.trav.nodes();
         if i >= nodes.len() {
@@ -326,22 +376,33 @@ impl SurfaceLattice {
             return Prep::CostToGo;
         }
         let res = self.trav.resolution();
-        let radius = (self.p.body_length_m / 2.0).hypot(self.p.body_width_m / 2.0)
-            + res * std::f64::consts::SQRT_2;
+        let radius = circumscribed_radius(&self.p) + res * std::f64::consts::SQRT_2;
         let reach = (radius / res).ceil() as i32;
         let r2 = (radius / res).powi(2);
-        let tol = self.trav.params().max_step_m * 2.0;
         let nd = nodes[i];
-        let free = self.body_free[i]
-            && (-reach..=reach).all(|dy| {
-                (-reach..=reach).all(|dx| {
-                    ((dx * dx + dy * dy) as f64) > r2
-                        || self
-                            .node_near(nd.ix + dx, nd.iy + dy, nd.ground_z, tol)
-                            .is_some_and(|j| self.body_free[j as usize])
-                })
-            });
-        self.clear.push(free);
+        let free = self.band_free(nd.ix, nd.iy, nd.ground_z);
+        // The nearest cell (squared, in cells) with something in the band.
+        let mut nearest = u16::MAX;
+        if free {
+            for dy in -reach..=reach {
+                for dx in -reach..=reach {
+                    let d2 = dx * dx + dy * dy;
+                    if d2 as f64 > r2 || d2 >= nearest as i32 {
+                        continue;
+                    }
+                    let (ix, iy) = (nd.ix + dx, nd.iy + dy);
+                    if !self.band_free(ix, iy, self.plane_z(&nd, ix, iy)) {
+                        nearest = d2 as u16;
+                    }
+                }
+            }
+        } else {
+            nearest = 0;
+        }
+        let clear = nearest == u16::MAX;
+        self.body_free.push(free);
+        self.clear.push(clear);
+        self.blocked_d2.push(nearest);
         Prep::Clear(i + 1)
     }
 
@@ -399,26 +460,6 @@ impl SurfaceLattice {
         self.actions.iter().map(Vec::len).sum()
     }
 
-    /// The node of cell `(ix, iy)` whose ground is nearest `z` within `tol`.
-    fn node_near(&self, ix: i32, iy: i32, z: f32, tol: f32) -> Option<u32> {
-        let (gx, gy) = (ix - self.origin.0, iy - self.origin.1);
-        if gx < 0 || gy < 0 || gx as usize >= self.dims.0 || gy as usize >= self.dims.1 {
-            return None;
-        }
-        let mut i = self.grid[gy as usize * self.dims.0 + gx as usize];
-        let mut best = None;
-        let mut best_d = tol;
-        while i != NONE {
-            let d = (self.trav.nodes()[i as usize].ground_z - z).abs();
-            if d <= best_d {
-                best_d = d;
-                best = Some(i);
-            }
-            i = self.next_in_cell[i as usize];
-        }
-        best
-    }
-
     /// The cost of action `a` from node `n`, and the node it ends on.
     fn apply(&self, n: u32, a: &SurfaceAction, path: &mut Vec<u32>) -> Option<(u32, u32)> {
         let nodes = self.trav.nodes();
@@ -435,7 +476,8 @@ impl SurfaceLattice {
                 return None;
             }
             let b = &nodes[next as usize];
-            if !b.class.is_drivable() || !self.body_free[next as usize] {
+            if !b.class.is_drivable() || (self.blocked_d2[next as usize] as f64) < self.inscribed_d2
+            {
                 return None;
             }
             let xy = if k % 2 == 0 {
@@ -450,16 +492,23 @@ impl SurfaceLattice {
             all_clear &= self.clear[cur as usize];
             path.push(cur);
         }
-        // The body over the level of the nearest path node (where some
+        // The body over the plane of the nearest path node (where some
         // pose has less room than the body's circle).
         let start = &nodes[n as usize];
-        let tol = self.trav.params().max_step_m * 2.0;
         let oriented = if all_clear { &[][..] } else { &a.footprint[..] };
         for &(ox, oy, k) in oriented {
-            let z = nodes[path[(k as usize).min(path.len() - 1)] as usize].ground_z;
-            match self.node_near(start.ix + ox, start.iy + oy, z, tol) {
-                Some(j) if self.body_free[j as usize] => {}
-                _ => return None,
+            let at = path[(k as usize).min(path.len() - 1)] as usize;
+            let nd = &nodes[at];
+            let (ix, iy) = (start.ix + ox, start.iy + oy);
+            // Every cell nearer a path node than the nearest cell with
+            // something in the band (within the body's circle, where this
+            // cell lies) is free: most are passed here.
+            let (dx, dy) = (ix - nd.ix, iy - nd.iy);
+            if dx * dx + dy * dy < self.blocked_d2[at] as i32 {
+                continue;
+            }
+            if !self.band_free(ix, iy, self.plane_z(nd, ix, iy)) {
+                return None;
             }
         }
         let slope_factor = if length_xy > 0.0 {
@@ -486,6 +535,43 @@ impl SurfaceLattice {
             .map(|nd| self.trav.position(nd))
             .collect()
     }
+}
+
+/// Half the diagonal of the body's rectangle.
+fn circumscribed_radius(p: &SurfaceParams) -> f64 {
+    (p.body_length_m / 2.0).hypot(p.body_width_m / 2.0)
+}
+
+/// The cells the body can reach from the nodes of `trav`: their bounding
+/// box grown by the circumscribed radius and a cell.
+fn grid_bounds(trav: &TravMap, p: &SurfaceParams) -> ((i32, i32), (i32, i32)) {
+    let margin = (circumscribed_radius(p) / trav.resolution()).ceil() as i32 + 2;
+    let (mut x0, mut y0, mut x1, mut y1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
+    for nd in trav.nodes() {
+        x0 = x0.min(nd.ix);
+        y0 = y0.min(nd.iy);
+        x1 = x1.max(nd.ix);
+        y1 = y1.max(nd.iy);
+    }
+    if x0 > x1 {
+        return ((0, 0), (0, 0));
+    }
+    ((x0 - margin, y0 - margin), (x1 + margin, y1 + margin))
+}
+
+/// Cells of the table a lattice needs for the graph `trav` (for
+/// [`SurfaceLattice::new`]'s `max_grid_cells`).
+pub fn grid_cells_for(trav: &TravMap, p: &SurfaceParams) -> usize {
+    let ((x0, y0), (x1, y1)) = grid_bounds(trav, p);
+    (x1 - x0 + 1) as usize * (y1 - y0 + 1) as usize
+}
+
+/// Cells of the table for graphs kept within a square window of
+/// `window_m` at `resolution_m`.
+pub fn grid_cells_for_window(window_m: f64, resolution_m: f64, p: &SurfaceParams) -> usize {
+    let margin = (circumscribed_radius(p) / resolution_m).ceil() as usize + 2;
+    let side = (window_m / resolution_m).ceil() as usize + 2 + 2 * margin;
+    side * side
 }
 
 /// The surface form of a primitive: its cell moves and body footprint.

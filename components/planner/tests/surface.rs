@@ -149,8 +149,8 @@ fn a_lattice_prepared_in_slices_equals_one_prepared_at_once() {
         (lat, steps)
     };
     let (whole, _) = lattice(usize::MAX);
-    let (sliced, steps) = lattice(3);
-    assert!(steps > 1000, "{steps} steps");
+    let (sliced, steps) = lattice(1);
+    assert!(steps > 300, "{steps} steps");
     assert_eq!(whole.state_count(), sliced.state_count());
     let (mut a, mut b) = (Vec::new(), Vec::new());
     for s in 0..whole.state_count() as u32 {

@@ -322,15 +322,22 @@ impl TravMap {
                 continue;
             }
             let cell = mls.cell(jx, jy);
-            let Some(q) = ground_patch(cell, n.patch_z, self.params.max_step_m) else {
-                if !occupied_near(cell, n.patch_z, &self.params) {
-                    self.nodes[i as usize].touches_unobserved = true;
-                }
-                continue;
+            let z = match ground_patch(cell, n.patch_z, self.params.max_step_m) {
+                Some(q) => q.mean,
+                // A wall or a drop seen there: no link.
+                None if occupied_near(cell, n.patch_z, &self.params) => continue,
+                // Nothing seen: bridged if ground lies a little further on.
+                None => match self.bridge(mls, &n, (*dx, *dy)) {
+                    Some(z) => z,
+                    None => {
+                        self.nodes[i as usize].touches_unobserved = true;
+                        continue;
+                    }
+                },
             };
-            let j = match self.find(jx, jy, q.mean) {
+            let j = match self.find(jx, jy, z) {
                 Some(j) => j,
-                None => match self.add_node(jx, jy, q.mean) {
+                None => match self.add_node(jx, jy, z) {
                     Some(j) => {
                         self.queue.push_back(j);
                         j
@@ -346,9 +353,31 @@ impl TravMap {
         }
     }
 
-    fn find(&self, ix: i32, iy: i32, patch_z: f32) -> Option<u32> {
+    /// The node of a cell at a height (within a step: patches of one cell
+    /// lie farther apart than that, bridged heights are interpolated).
+    fn find(&self, ix: i32, iy: i32, z: f32) -> Option<u32> {
         self.nodes_in_cell(ix, iy)
-            .find(|&i| self.nodes[i as usize].patch_z == patch_z)
+            .find(|&i| (self.nodes[i as usize].patch_z - z).abs() <= self.params.max_step_m)
+    }
+
+    /// The height for the unobserved cell next to `n` in direction `d`:
+    /// interpolated towards the first ground patch further on within
+    /// `max_gap_m` (a step per cell at most), if nothing else is seen on
+    /// the way. Sparse LiDAR rings leave such gaps in the ground; the
+    /// support plane of the bridged node must still fit real points.
+    fn bridge(&self, mls: &MlsMap, n: &Node, d: (i32, i32)) -> Option<f32> {
+        let cells = (self.params.max_gap_m / self.resolution).floor() as i32;
+        for k in 2..=cells + 1 {
+            let cell = mls.cell(n.ix + k * d.0, n.iy + k * d.1);
+            let tol = self.params.max_step_m * k as f32;
+            if let Some(q) = ground_patch(cell, n.patch_z, tol) {
+                return Some(n.patch_z + (q.mean - n.patch_z) / k as f32);
+            }
+            if occupied_near(cell, n.patch_z, &self.params) {
+                return None;
+            }
+        }
+        None
     }
 
     fn add_node(&mut self, ix: i32, iy: i32, patch_z: f32) -> Option<u32> {

@@ -9,6 +9,9 @@ pub struct TravParams {
     /// them to connect) and between the support plane and any ground
     /// patch under the footprint.
     pub max_step_m: f32,
+    /// Unobserved gaps in the ground up to this wide are bridged where
+    /// ground continues beyond them (0: never).
+    pub max_gap_m: f64,
     /// Radius of the ground that carries the robot (the support plane is
     /// fitted over it).
     pub footprint_radius_m: f64,
@@ -36,6 +39,7 @@ impl Default for TravParams {
         TravParams {
             max_slope_deg: 25.0,
             max_step_m: 0.12,
+            max_gap_m: 0.6,
             footprint_radius_m: 0.4,
             inscribed_radius_m: 0.3,
             ground_clearance_m: 0.2,
@@ -68,6 +72,9 @@ impl TravParams {
             && self.ground_clearance_m < self.robot_height_m)
         {
             return Err("ground_clearance_m must lie between max_step_m and robot_height_m".into());
+        }
+        if !(self.max_gap_m >= 0.0 && self.max_gap_m <= 10.0) {
+            return Err("max_gap_m must lie in 0..=10".into());
         }
         if self.max_slope_deg >= 90.0 || self.min_inliers < 3 || self.ransac_iterations == 0 {
             return Err(

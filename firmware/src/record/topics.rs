@@ -48,6 +48,8 @@ pub enum Topic {
     SimTf,
     /// The SLAM pose in the map frame (added last: channel ids stay stable).
     SlamPose,
+    /// The planner's latest path.
+    PlannerPath,
 }
 
 pub struct TopicInfo {
@@ -84,7 +86,7 @@ impl TopicInfo {
 const RAW: &str = "speleo_msgs/msg/RawInput";
 
 impl Topic {
-    pub const ALL: [Topic; 18] = [
+    pub const ALL: [Topic; 19] = [
         Topic::RawLidar,
         Topic::RawLidarPosition,
         Topic::RawImu,
@@ -103,6 +105,7 @@ impl Topic {
         Topic::GroundTruth,
         Topic::SimTf,
         Topic::SlamPose,
+        Topic::PlannerPath,
     ];
 
     /// Position in the data flow (decoded inputs first, commands to the
@@ -113,7 +116,7 @@ impl Topic {
             Topic::RawLidar | Topic::RawLidarPosition | Topic::RawImu | Topic::RawCan => 0,
             Topic::Imu | Topic::Cloud | Topic::Drives => 1,
             Topic::Odom | Topic::Tf | Topic::SlamPose => 2,
-            Topic::WheelCommand | Topic::Plan => 3,
+            Topic::WheelCommand | Topic::Plan | Topic::PlannerPath => 3,
             Topic::Health => 4,
             Topic::ImuTx | Topic::CanTx => 5,
             Topic::Scheduler | Topic::GroundTruth | Topic::SimTf => 6,
@@ -170,6 +173,12 @@ impl Topic {
                 Role::Output,
             ),
             Topic::Plan => ("/plan", "foxglove.SceneUpdate", SCENE_UPDATE, Role::Output),
+            Topic::PlannerPath => (
+                "/planner/path",
+                "foxglove.SceneUpdate",
+                SCENE_UPDATE,
+                Role::Output,
+            ),
             Topic::Health => ("/health", "speleo.Health", HEALTH, Role::Output),
             Topic::Scheduler => (
                 "/scheduler",

@@ -10,5 +10,6 @@ pub mod io;
 pub mod lidar_driver;
 pub mod maps;
 pub mod odometry;
+pub mod planner;
 pub mod recorder;
 pub mod slam;

@@ -25,6 +25,7 @@ pub struct RecorderTask<'r> {
     drives_seen: u64,
     odom_seen: u64,
     slam_seen: u64,
+    planner_seen: u64,
     command_seen: u64,
     health_seen: u64,
     plan: Vec<[f64; 2]>,
@@ -55,6 +56,7 @@ impl<'r> RecorderTask<'r> {
             drives_seen: 0,
             odom_seen: 0,
             slam_seen: 0,
+            planner_seen: 0,
             command_seen: 0,
             health_seen: 0,
             plan,
@@ -354,7 +356,43 @@ impl Task<Bus> for RecorderTask<'_> {
         }
 
         if frame % PLAN_EVERY_FRAMES == 0 {
-            self.emit_plan(&mut tap, frame, now);
+            let route = self.plan.iter().map(|p| [p[0], p[1], 0.0]);
+            let looped = self.plan_looped;
+            let line = SceneLine {
+                frame_id: "odom",
+                id: "plan",
+                looped,
+                color: [0.1, 0.8, 0.3],
+            };
+            emit_line(&mut tap, Topic::Plan, frame, now, now, &line, route);
+        }
+        if let Some(p) = bus.plan.newer_than(self.planner_seen) {
+            self.planner_seen = p.seq;
+            // The planner's path over the ground, in the SLAM map frame.
+            let poses = p
+                .value
+                .poses
+                .iter()
+                .map(|q| [q[0] as f64, q[1] as f64, q[2] as f64]);
+            let line = SceneLine {
+                frame_id: "map",
+                id: "planner_path",
+                looped: false,
+                color: if p.value.optimal {
+                    [0.2, 0.4, 1.0]
+                } else {
+                    [1.0, 0.6, 0.1]
+                },
+            };
+            emit_line(
+                &mut tap,
+                Topic::PlannerPath,
+                frame,
+                now,
+                p.stamp_ns,
+                &line,
+                poses,
+            );
         }
         if let Some(c) = tap.comparer_mut() {
             c.end_frame(frame);
@@ -368,99 +406,112 @@ impl Task<Bus> for RecorderTask<'_> {
     }
 }
 
-impl RecorderTask<'_> {
-    fn emit_plan(&self, tap: &mut RecorderTap, frame: u64, now: u64) {
-        #[derive(Serialize)]
-        struct Point {
-            x: f64,
-            y: f64,
-            z: f64,
-        }
-        #[derive(Serialize)]
-        struct Line<P> {
-            #[serde(rename = "type")]
-            kind: u8,
-            pose: Pose,
-            thickness: f64,
-            scale_invariant: bool,
-            points: P,
-            color: Color,
-            colors: [u8; 0],
-            indices: [u8; 0],
-        }
-        #[derive(Serialize)]
-        struct Entity<'a, P> {
-            timestamp: Time,
-            frame_id: &'a str,
-            id: &'a str,
-            lifetime: Time,
-            frame_locked: bool,
-            metadata: [u8; 0],
-            arrows: [u8; 0],
-            cubes: [u8; 0],
-            spheres: [u8; 0],
-            cylinders: [u8; 0],
-            lines: [Line<P>; 1],
-            triangles: [u8; 0],
-            texts: [u8; 0],
-            models: [u8; 0],
-        }
-        #[derive(Serialize)]
-        struct SceneUpdate<'a, P> {
-            deletions: [u8; 0],
-            entities: [Entity<'a, P>; 1],
-        }
-        let points = SeqOf::new(self.plan.iter().map(|p| Point {
-            x: p[0],
-            y: p[1],
-            z: 0.0,
-        }));
-        let msg = SceneUpdate {
-            deletions: [],
-            entities: [Entity {
-                timestamp: tap.time(now),
-                frame_id: "odom",
-                id: "plan",
-                lifetime: Time { sec: 0, nsec: 0 },
-                frame_locked: false,
-                metadata: [],
-                arrows: [],
-                cubes: [],
-                spheres: [],
-                cylinders: [],
-                lines: [Line {
-                    kind: if self.plan_looped { 1 } else { 0 },
-                    pose: Pose {
-                        position: Vector3 {
-                            x: 0.0,
-                            y: 0.0,
-                            z: 0.0,
-                        },
-                        orientation: Quaternion::wxyz([1.0, 0.0, 0.0, 0.0]),
-                    },
-                    thickness: 0.05,
-                    scale_invariant: false,
-                    points,
-                    color: Color {
-                        r: 0.1,
-                        g: 0.8,
-                        b: 0.3,
-                        a: 1.0,
-                    },
-                    colors: [],
-                    indices: [],
-                }],
-                triangles: [],
-                texts: [],
-                models: [],
-            }],
-        };
-        // Up to MAX_WAYPOINTS points (~60 bytes each in JSON) outgrow a
-        // small message buffer: the plan goes in a point-cloud-sized one.
-        tap.emit_large(Topic::Plan, frame, now, now, |w| {
-            serde_json::to_writer(w, &msg).map_err(std::io::Error::other)
-        });
+/// One polyline of a `foxglove.SceneUpdate`.
+struct SceneLine {
+    frame_id: &'static str,
+    id: &'static str,
+    looped: bool,
+    /// r, g, b.
+    color: [f64; 3],
+}
+
+/// A `foxglove.SceneUpdate` with one line entity through `points`.
+fn emit_line(
+    tap: &mut RecorderTap,
+    topic: Topic,
+    frame: u64,
+    now: u64,
+    stamp_ns: u64,
+    line: &SceneLine,
+    points: impl Iterator<Item = [f64; 3]>,
+) {
+    #[derive(Serialize)]
+    struct Point {
+        x: f64,
+        y: f64,
+        z: f64,
     }
+    #[derive(Serialize)]
+    struct Line<P> {
+        #[serde(rename = "type")]
+        kind: u8,
+        pose: Pose,
+        thickness: f64,
+        scale_invariant: bool,
+        points: P,
+        color: Color,
+        colors: [u8; 0],
+        indices: [u8; 0],
+    }
+    #[derive(Serialize)]
+    struct Entity<'a, P> {
+        timestamp: Time,
+        frame_id: &'a str,
+        id: &'a str,
+        lifetime: Time,
+        frame_locked: bool,
+        metadata: [u8; 0],
+        arrows: [u8; 0],
+        cubes: [u8; 0],
+        spheres: [u8; 0],
+        cylinders: [u8; 0],
+        lines: [Line<P>; 1],
+        triangles: [u8; 0],
+        texts: [u8; 0],
+        models: [u8; 0],
+    }
+    #[derive(Serialize)]
+    struct SceneUpdate<'a, P> {
+        deletions: [u8; 0],
+        entities: [Entity<'a, P>; 1],
+    }
+    let points = SeqOf::new(points.map(|p| Point {
+        x: p[0],
+        y: p[1],
+        z: p[2],
+    }));
+    let [r, g, b] = line.color;
+    let msg = SceneUpdate {
+        deletions: [],
+        entities: [Entity {
+            timestamp: tap.time(stamp_ns),
+            frame_id: line.frame_id,
+            id: line.id,
+            lifetime: Time { sec: 0, nsec: 0 },
+            frame_locked: false,
+            metadata: [],
+            arrows: [],
+            cubes: [],
+            spheres: [],
+            cylinders: [],
+            lines: [Line {
+                // Line strip, or line loop.
+                kind: if line.looped { 1 } else { 0 },
+                pose: Pose {
+                    position: Vector3 {
+                        x: 0.0,
+                        y: 0.0,
+                        z: 0.0,
+                    },
+                    orientation: Quaternion::wxyz([1.0, 0.0, 0.0, 0.0]),
+                },
+                thickness: 0.05,
+                scale_invariant: false,
+                points,
+                color: Color { r, g, b, a: 1.0 },
+                colors: [],
+                indices: [],
+            }],
+            triangles: [],
+            texts: [],
+            models: [],
+        }],
+    };
+    // Hundreds of points (~60 bytes each in JSON) outgrow a small message
+    // buffer: the line goes in a point-cloud-sized one.
+    tap.emit_large(topic, frame, now, stamp_ns, |w| {
+        serde_json::to_writer(w, &msg).map_err(std::io::Error::other)
+    });
 }
 
 /// A `sensor_msgs/PointCloud2` in CDR: an unordered cloud of 20-byte points

@@ -4,6 +4,7 @@
 //! over the rover's primitives projected on it; `speleo world waypoints`
 //! names the poses to plan between.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::time::Instant;
 
@@ -157,6 +158,11 @@ pub struct WorldPlanReport {
     /// Building the maps, and the lattice with its heuristic, s.
     pub maps_s: f64,
     pub lattice_s: f64,
+    /// Mean time of one work unit of each phase, us: a node grown, and a
+    /// unit of each lattice preparation phase (the planner task's quanta
+    /// are sized from these and `us_per_expansion`).
+    pub units_us: BTreeMap<&'static str, f64>,
+    pub us_per_expansion: Option<f64>,
     pub heuristic_at_start_ms: u32,
     pub rounds: Vec<Round>,
     pub first_solution_s: Option<f64>,
@@ -183,6 +189,18 @@ impl fmt::Display for WorldPlanReport {
             self.primitives,
             self.maps_s,
             self.lattice_s
+        )?;
+        let units: Vec<String> = self
+            .units_us
+            .iter()
+            .map(|(k, v)| format!("{k} {v:.1}"))
+            .collect();
+        writeln!(
+            f,
+            "work units, us: {}; an expansion {}",
+            units.join(", "),
+            self.us_per_expansion
+                .map_or("-".into(), |v| format!("{v:.1}"))
         )?;
         for r in &self.rounds {
             writeln!(
@@ -227,7 +245,9 @@ pub fn plan_world(a: &WorldPlanArgs<'_>) -> Result<WorldPlanReport, Error> {
     let goal = pose_of(a.goal, &named)?;
     let mls = surface_map(&w)?;
     let mut trav = TravMap::new(TravParams::default())?;
+    let grown = Instant::now();
     let stats = trav.build(&mls, [start[0], start[1], start[2]])?;
+    let grow_us_per_node = grown.elapsed().as_secs_f64() * 1e6 / stats.nodes.max(1) as f64;
     let maps_s = started.elapsed().as_secs_f64();
     let prims = match a.mprim {
         Some(p) => {
@@ -249,9 +269,28 @@ pub fn plan_world(a: &WorldPlanArgs<'_>) -> Result<WorldPlanReport, Error> {
     };
     let (s_node, g_node) = (find(start, "start")?, find(goal, "goal")?);
     let started = Instant::now();
-    let cells = trav.cell_span();
+    let cells = speleo_planner::surface::grid_cells_for(&trav, &SurfaceParams::default());
     let mut lat = SurfaceLattice::new(trav, &prims, SurfaceParams::default(), cells)?;
-    lat.prepare_all(&mls, (g_node, angle_to_bin(goal[3], prims.angles)))?;
+    lat.begin((g_node, angle_to_bin(goal[3], prims.angles)))?;
+    // Unit by unit, timed per phase: the figures the on-board quanta are
+    // calibrated from.
+    let mut phases: BTreeMap<&'static str, (f64, u64)> = BTreeMap::new();
+    loop {
+        let phase = lat.phase();
+        let t = Instant::now();
+        let done = lat.prepare(&mls, 1);
+        let e = phases.entry(phase).or_default();
+        e.0 += t.elapsed().as_secs_f64() * 1e6;
+        e.1 += 1;
+        if done {
+            break;
+        }
+    }
+    let mut units_us: BTreeMap<&'static str, f64> = phases
+        .into_iter()
+        .map(|(k, (us, n))| (k, us / n as f64))
+        .collect();
+    units_us.insert("grow (a node)", grow_us_per_node);
     let lattice_s = started.elapsed().as_secs_f64();
     let s_state = lat.state(s_node, angle_to_bin(start[3], prims.angles));
     let timed = search_timed(
@@ -285,6 +324,8 @@ pub fn plan_world(a: &WorldPlanArgs<'_>) -> Result<WorldPlanReport, Error> {
         primitives: lat.action_count(),
         maps_s,
         lattice_s,
+        units_us,
+        us_per_expansion: optimal.map(|o| o.1 * 1e6 / timed.expansions.max(1) as f64),
         heuristic_at_start_ms: lat.heuristic(s_state),
         first_solution_s: rounds.first().map(|r| r.time_s),
         optimal_s: optimal.map(|o| o.1),

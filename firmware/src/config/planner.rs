@@ -1,0 +1,174 @@
+//! `[planner]`: the traversability graph and the anytime multi-level ARA*
+//! planner run by the `planner` task over the serving MLS map.
+
+use serde::{Deserialize, Serialize};
+
+use super::{range, ConfigError};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PlannerConfig {
+    /// Plan (needs the maps).
+    pub enabled: bool,
+    /// Side of the square around the rover the graph is grown in, m.
+    pub window_m: f64,
+    /// Most nodes the graph holds; the search's storage is this many
+    /// nodes times the primitives' headings.
+    pub max_nodes: usize,
+    /// The goal: this far ahead of the rover along the route, m.
+    pub goal_ahead_m: f64,
+    /// A new query this long after the last one began, s.
+    pub replan_every_s: f64,
+    /// A query that has not proven its plan optimal after this many
+    /// expansions keeps its best plan and stops.
+    pub max_expansions: u64,
+    /// ARA*'s first inflation, and how much it falls after each solution.
+    pub initial_eps: f64,
+    pub eps_step: f64,
+    /// Steepest support plane and highest step the rover drives.
+    pub max_slope_deg: f64,
+    pub max_step_m: f64,
+    /// Travel-time costs.
+    pub forward_speed_mps: f64,
+    pub backward_speed_mps: f64,
+    pub turn_speed_rad_s: f64,
+    /// The body's rectangle checked at every pose of a primitive.
+    pub body_length_m: f64,
+    pub body_width_m: f64,
+    /// An SBPL `.mprim` file at the map's resolution; empty: the
+    /// generated set for the rover (`speleo primitives`).
+    pub mprim: String,
+}
+
+impl Default for PlannerConfig {
+    fn default() -> Self {
+        let s = speleo_planner::surface::SurfaceParams::default();
+        let t = speleo_traversability::TravParams::default();
+        PlannerConfig {
+            enabled: true,
+            window_m: 30.0,
+            max_nodes: 1 << 16,
+            goal_ahead_m: 8.0,
+            replan_every_s: 10.0,
+            max_expansions: 500_000,
+            initial_eps: 3.0,
+            eps_step: 0.2,
+            max_slope_deg: t.max_slope_deg,
+            max_step_m: t.max_step_m as f64,
+            forward_speed_mps: s.forward_speed_mps,
+            backward_speed_mps: s.backward_speed_mps,
+            turn_speed_rad_s: s.turn_speed_rad_s,
+            body_length_m: s.body_length_m,
+            body_width_m: s.body_width_m,
+            mprim: String::new(),
+        }
+    }
+}
+
+impl PlannerConfig {
+    pub(super) fn validate(&self, mls_resolution_m: f64) -> Result<(), ConfigError> {
+        range("planner.window_m", self.window_m, 2.0, 500.0, "2..=500")?;
+        let cells = (self.window_m / mls_resolution_m + 2.0).powi(2);
+        if cells > 64e6 {
+            return Err(ConfigError::Invalid {
+                key: "planner.window_m".into(),
+                why: format!("{cells:.0} cells of maps.mls_resolution_m: at most 64 M"),
+            });
+        }
+        range(
+            "planner.max_nodes",
+            self.max_nodes,
+            16,
+            1 << 22,
+            "16..=4194304",
+        )?;
+        range(
+            "planner.goal_ahead_m",
+            self.goal_ahead_m,
+            0.5,
+            self.window_m / 2.0,
+            "0.5..=window_m / 2",
+        )?;
+        range(
+            "planner.replan_every_s",
+            self.replan_every_s,
+            0.1,
+            3600.0,
+            "0.1..=3600",
+        )?;
+        range(
+            "planner.max_expansions",
+            self.max_expansions,
+            1,
+            u32::MAX as u64,
+            "1..=4294967295",
+        )?;
+        range(
+            "planner.initial_eps",
+            self.initial_eps,
+            1.0,
+            100.0,
+            "1..=100",
+        )?;
+        range(
+            "planner.eps_step",
+            self.eps_step,
+            0.001,
+            100.0,
+            "0.001..=100",
+        )?;
+        range(
+            "planner.max_slope_deg",
+            self.max_slope_deg,
+            1.0,
+            80.0,
+            "1..=80",
+        )?;
+        range(
+            "planner.max_step_m",
+            self.max_step_m,
+            0.01,
+            0.19,
+            "0.01..=0.19",
+        )?;
+        for (k, v) in [
+            ("planner.forward_speed_mps", self.forward_speed_mps),
+            ("planner.backward_speed_mps", self.backward_speed_mps),
+            ("planner.turn_speed_rad_s", self.turn_speed_rad_s),
+            ("planner.body_length_m", self.body_length_m),
+            ("planner.body_width_m", self.body_width_m),
+        ] {
+            range(k, v, 0.01, 10.0, "0.01..=10")?;
+        }
+        Ok(())
+    }
+
+    pub fn trav_params(&self) -> speleo_traversability::TravParams {
+        speleo_traversability::TravParams {
+            max_slope_deg: self.max_slope_deg,
+            max_step_m: self.max_step_m as f32,
+            max_nodes: self.max_nodes,
+            ..speleo_traversability::TravParams::default()
+        }
+    }
+
+    pub fn surface_params(&self) -> speleo_planner::surface::SurfaceParams {
+        speleo_planner::surface::SurfaceParams {
+            forward_speed_mps: self.forward_speed_mps,
+            backward_speed_mps: self.backward_speed_mps,
+            turn_speed_rad_s: self.turn_speed_rad_s,
+            body_length_m: self.body_length_m,
+            body_width_m: self.body_width_m,
+        }
+    }
+
+    /// Cells of the lattice's map table for the growth window at
+    /// `resolution_m`.
+    pub fn window_cells(&self, resolution_m: f64) -> usize {
+        speleo_planner::surface::grid_cells_for_window(
+            self.window_m,
+            resolution_m,
+            &self.surface_params(),
+        )
+    }
+}

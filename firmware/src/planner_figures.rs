@@ -1,0 +1,79 @@
+//! The report's `planner` section: what the planner task did over a run.
+//! Latencies are mission time from a query's start (the SLAM pose and the
+//! point ahead on the route) to its first plan and to its proven optimum,
+//! so they count the graph's growth and the lattice's preparation too.
+
+use serde::Serialize;
+
+use crate::tasks::planner::{PlannerCounters, PlannerTask};
+
+#[derive(Clone, Debug, Serialize)]
+pub struct PlannerFigures {
+    pub calls: u64,
+    pub solved: u64,
+    pub optimal: u64,
+    pub no_start: u64,
+    pub no_goal: u64,
+    pub no_path: u64,
+    pub abandoned: u64,
+    pub first_solution_ms_median: Option<f64>,
+    pub first_solution_ms_max: Option<u32>,
+    pub optimal_ms_median: Option<f64>,
+    pub optimal_ms_max: Option<u32>,
+    /// Proven bound of the last solved query's final plan (1: optimal).
+    pub final_eps: Option<f64>,
+    pub final_eps_max: Option<f64>,
+    pub expansions: u64,
+    pub plans_published: u64,
+    pub graph_nodes_max: u64,
+    pub graphs_full: u64,
+    pub memory_bytes: usize,
+}
+
+fn median(v: &[u32]) -> Option<f64> {
+    let mut s = v.to_vec();
+    s.sort_unstable();
+    let n = s.len();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(s[n / 2] as f64),
+        _ => Some((s[n / 2 - 1] as f64 + s[n / 2] as f64) / 2.0),
+    }
+}
+
+pub fn figures(t: &PlannerTask, max_nodes: usize) -> PlannerFigures {
+    let c: PlannerCounters = t.counters;
+    let eps = |m: u32| m as f64 / 1000.0;
+    PlannerFigures {
+        calls: c.queries,
+        solved: c.solved,
+        optimal: c.optimal,
+        no_start: c.no_start,
+        no_goal: c.no_goal,
+        no_path: c.no_path,
+        abandoned: c.abandoned,
+        first_solution_ms_median: median(&t.first_ms),
+        first_solution_ms_max: t.first_ms.iter().copied().max(),
+        optimal_ms_median: median(&t.optimal_ms),
+        optimal_ms_max: t.optimal_ms.iter().copied().max(),
+        final_eps: t.final_eps_milli.last().map(|&m| eps(m)),
+        final_eps_max: t.final_eps_milli.iter().copied().max().map(eps),
+        expansions: c.expansions,
+        plans_published: c.plans_published,
+        graph_nodes_max: c.nodes_max,
+        graphs_full: c.graphs_full,
+        memory_bytes: t.memory_bytes(max_nodes),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn medians_of_odd_and_even_counts() {
+        assert_eq!(median(&[]), None);
+        assert_eq!(median(&[5, 1, 3]), Some(3.0));
+        assert_eq!(median(&[4, 1, 3, 2]), Some(2.5));
+    }
+}

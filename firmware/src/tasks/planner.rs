@@ -1,0 +1,676 @@
+//! The planner as an anytime task. Every `replan_every_s` it takes the
+//! SLAM pose and the point `goal_ahead_m` ahead along the route, then in
+//! fixed quanta of work: grows the traversability graph over the serving
+//! MLS map within a window around the rover, picks the start and goal
+//! nodes, prepares the lattice (cell index, body checks, the cost-to-go)
+//! and runs ARA*, publishing the first plan as soon as it exists and each
+//! better one as epsilon falls. Each step does one phase's work for one
+//! quantum, so the same inputs give the same plans at the same frames on
+//! any machine.
+//!
+//! Every buffer (graph, lattice, search, plan) is taken at start-up for
+//! `planner.max_nodes` nodes and the window's cells: nothing is allocated
+//! while planning.
+
+use speleo_mapping::mls::{MlsMap, PatchKind};
+use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
+use speleo_planner::mprim::MprimFile;
+use speleo_planner::surface::SurfaceLattice;
+use speleo_scheduler::{Context, StepResult, Task};
+use speleo_traversability::{TravMap, Window};
+
+use crate::bus::{Bus, PlanMsg};
+use crate::config::PlannerConfig;
+use crate::tasks::control::yaw_of;
+
+/// Results kept for the report's medians (a query every few seconds: days
+/// of mission).
+const HISTORY: usize = 8192;
+/// Start patches tried, nearest the rover first.
+const START_CANDIDATES: usize = 8;
+/// How far from the rover the start patch may be (the LiDAR does not see
+/// the ground right under the rover until it has moved), m.
+const START_REACH_M: f64 = 1.5;
+/// How far from the point ahead on the route the goal node may be, m.
+const GOAL_REACH_M: f64 = 1.0;
+/// Where the map does not reach `goal_ahead_m` yet, the goal comes back
+/// along the route a metre at a time, to no nearer than this, m.
+const GOAL_NEAREST_M: f64 = 2.0;
+const GOAL_POINTS: usize = 32;
+/// Work units, each about one ARA* expansion (~10 us; see the planner
+/// README): graph nodes grown (~4 us each on the simulated rover's map),
+/// nodes scanned for the start and the goal.
+const GROW_PER_UNIT: usize = 2;
+const PICK_PER_UNIT: usize = 128;
+
+/// What the task has done.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PlannerCounters {
+    /// Queries begun (every kind of end below counts one).
+    pub queries: u64,
+    /// No ground patch near the rover, or none drivable.
+    pub no_start: u64,
+    /// No drivable node near the point ahead on the route.
+    pub no_goal: u64,
+    /// The goal cannot be reached within the window.
+    pub no_path: u64,
+    /// At least one plan published.
+    pub solved: u64,
+    /// Proven optimal.
+    pub optimal: u64,
+    /// Stopped at `max_expansions` with the best plan so far.
+    pub abandoned: u64,
+    pub expansions: u64,
+    pub plans_published: u64,
+    /// Largest graph grown, and graphs that hit `max_nodes`.
+    pub nodes_max: u64,
+    pub graphs_full: u64,
+    /// Queries skipped because the lattice refused the graph (a window
+    /// larger than configured, which validation prevents).
+    pub lattice_errors: u64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    Idle,
+    /// Growing the graph from start candidate `candidate`.
+    Grow {
+        candidate: usize,
+    },
+    /// Scanning the nodes for the start and the goal, from node `next`.
+    Pick {
+        next: usize,
+    },
+    Prepare,
+    Search,
+}
+
+/// The query under way.
+#[derive(Clone, Copy, Debug, Default)]
+struct Query {
+    began_ns: u64,
+    rover: [f64; 3],
+    yaw: f64,
+    /// Points along the route, farthest first, with the route's heading.
+    goals: [([f64; 2], f64); GOAL_POINTS],
+    goal_count: usize,
+    /// The start node and, per goal point, the node found so far, with
+    /// their distances².
+    start: Option<(u32, f64)>,
+    goal: [Option<(u32, f64)>; GOAL_POINTS],
+    start_state: u32,
+    solved: bool,
+    /// Proven bound of the last plan, thousandths.
+    eps_milli: u32,
+}
+
+pub struct PlannerTask {
+    lat: SurfaceLattice,
+    search: AraStar,
+    params: AraParams,
+    route: Vec<[f64; 2]>,
+    looped: bool,
+    window_half_m: f64,
+    goal_ahead_m: f64,
+    replan_ns: u64,
+    max_expansions: u64,
+    /// The ground under base_link is about this far down, m.
+    base_height_m: f64,
+    phase: Phase,
+    query: Query,
+    next_query_ns: u64,
+    candidates: heapless::Vec<(i32, i32, f32), START_CANDIDATES>,
+    /// Scratch: the plan's states.
+    states: Vec<u32>,
+    /// Per solved query: mission time to the first plan and, when proven,
+    /// to the optimum, ms; the final bound, thousandths.
+    pub first_ms: Vec<u32>,
+    pub optimal_ms: Vec<u32>,
+    pub final_eps_milli: Vec<u32>,
+    pub counters: PlannerCounters,
+}
+
+impl PlannerTask {
+    /// The task as `[planner]` configures it, following `route` (the
+    /// control path), with primitives `prims` at `resolution_m`.
+    pub fn new(
+        cfg: &PlannerConfig,
+        prims: &MprimFile,
+        resolution_m: f64,
+        route: &[[f64; 2]],
+        looped: bool,
+        base_height_m: f64,
+    ) -> Result<Self, String> {
+        let trav = TravMap::new(cfg.trav_params()).map_err(|e| e.to_string())?;
+        let lat = SurfaceLattice::new(
+            trav,
+            prims,
+            cfg.surface_params(),
+            cfg.window_cells(resolution_m),
+        )?;
+        if (prims.resolution_m - resolution_m).abs() > 1e-6 * resolution_m {
+            return Err(format!(
+                "the primitives are for {} m cells, the map has {resolution_m} m",
+                prims.resolution_m
+            ));
+        }
+        let search = AraStar::new(lat.max_state_count(), lat.max_successors());
+        Ok(PlannerTask {
+            lat,
+            search,
+            params: AraParams {
+                initial_eps: cfg.initial_eps,
+                eps_step: cfg.eps_step,
+            },
+            route: route.to_vec(),
+            looped,
+            window_half_m: cfg.window_m / 2.0,
+            goal_ahead_m: cfg.goal_ahead_m,
+            replan_ns: (cfg.replan_every_s * 1e9) as u64,
+            max_expansions: cfg.max_expansions,
+            base_height_m,
+            phase: Phase::Idle,
+            query: Query::default(),
+            next_query_ns: 0,
+            candidates: heapless::Vec::new(),
+            states: Vec::with_capacity(8192),
+            first_ms: Vec::with_capacity(HISTORY),
+            optimal_ms: Vec::with_capacity(HISTORY),
+            final_eps_milli: Vec::with_capacity(HISTORY),
+            counters: PlannerCounters::default(),
+        })
+    }
+
+    /// The search's and the lattice's fixed storage, approximately.
+    pub fn memory_bytes(&self, max_nodes: usize) -> usize {
+        // Per state: query mark, g, parent, two round marks, heap position
+        // (4 bytes each), a heap entry (16) and an INCONS slot (4).
+        let search = self.lat.max_state_count() * 44;
+        // Per node: the graph's node (~72), index links and the lattice's
+        // per-node arrays (~20), eight queue entries (8 each).
+        search + max_nodes * (72 + 20 + 64)
+    }
+
+    /// Begin a query if one is due and possible.
+    fn begin_query(&mut self, bus: &mut Bus, now: u64) -> bool {
+        if now < self.next_query_ns || self.route.len() < 2 {
+            return false;
+        }
+        let Some(pose) = bus.slam.get().map(|p| p.value) else {
+            return false;
+        };
+        let mls = bus.surface.serving();
+        if mls.stats().cells == 0 {
+            return false;
+        }
+        self.next_query_ns = now + self.replan_ns;
+        self.counters.queries += 1;
+        let segment = bus.command.get().map_or(0, |c| c.value.segment as usize);
+        self.query = Query {
+            began_ns: now,
+            rover: pose.position,
+            yaw: yaw_of(pose.orientation),
+            ..Query::default()
+        };
+        let mut ahead = self.goal_ahead_m;
+        while self.query.goal_count < GOAL_POINTS {
+            self.query.goals[self.query.goal_count] = point_ahead(
+                &self.route,
+                self.looped,
+                segment,
+                [pose.position[0], pose.position[1]],
+                ahead,
+            );
+            self.query.goal_count += 1;
+            ahead -= 1.0;
+            if ahead < GOAL_NEAREST_M {
+                break;
+            }
+        }
+        start_candidates(
+            mls,
+            pose.position,
+            self.base_height_m,
+            self.lat.trav().params().max_step_m as f64,
+            &mut self.candidates,
+        );
+        self.begin_growth(bus.surface.serving(), 0)
+    }
+
+    /// Grow from start candidate `k` (or the next that has ground).
+    fn begin_growth(&mut self, mls: &MlsMap, mut k: usize) -> bool {
+        let [x, y, _] = self.query.rover;
+        let res = mls.params().resolution_m;
+        let window = Window::around(x, y, self.window_half_m, res);
+        while let Some(&(ix, iy, z)) = self.candidates.get(k) {
+            let at = [(ix as f64 + 0.5) * res, (iy as f64 + 0.5) * res, z as f64];
+            if self.lat.trav_mut().begin(mls, at, Some(window)).is_ok() {
+                self.phase = Phase::Grow { candidate: k };
+                return true;
+            }
+            k += 1;
+        }
+        self.counters.no_start += 1;
+        self.end_query();
+        false
+    }
+
+    /// The query is over: keep its figures and wait for the next.
+    fn end_query(&mut self) {
+        if self.query.solved && self.final_eps_milli.len() < HISTORY {
+            self.final_eps_milli.push(self.query.eps_milli);
+        }
+        self.phase = Phase::Idle;
+    }
+
+    /// Nearest drivable nodes to the rover and to the goal point.
+    fn pick(&mut self, from: usize, units: usize) -> Phase {
+        let trav = self.lat.trav();
+        let nodes = trav.nodes();
+        let to = from
+            .saturating_add(units.saturating_mul(PICK_PER_UNIT))
+            .min(nodes.len());
+        let q = &mut self.query;
+        for (i, n) in nodes.iter().enumerate().take(to).skip(from) {
+            if !n.class.is_drivable() {
+                continue;
+            }
+            let p = trav.position(n);
+            let ds = (p[0] - q.rover[0]).powi(2) + (p[1] - q.rover[1]).powi(2);
+            if ds <= START_REACH_M * START_REACH_M && q.start.is_none_or(|(_, d)| ds < d) {
+                q.start = Some((i as u32, ds));
+            }
+            for k in 0..q.goal_count {
+                let g = q.goals[k].0;
+                let dg = (p[0] - g[0]).powi(2) + (p[1] - g[1]).powi(2);
+                if dg <= GOAL_REACH_M * GOAL_REACH_M && q.goal[k].is_none_or(|(_, d)| dg < d) {
+                    q.goal[k] = Some((i as u32, dg));
+                }
+            }
+        }
+        if to < nodes.len() {
+            return Phase::Pick { next: to };
+        }
+        let angles = self.lat.angles();
+        // The farthest point ahead that the graph reaches.
+        let goal = (0..q.goal_count).find_map(|k| q.goal[k].map(|(g, _)| (g, q.goals[k].1)));
+        let (Some((s, _)), Some((g, goal_yaw))) = (q.start, goal) else {
+            if q.start.is_none() {
+                self.counters.no_start += 1;
+            } else {
+                self.counters.no_goal += 1;
+            }
+            self.end_query();
+            return Phase::Idle;
+        };
+        let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, angles);
+        q.start_state = self.lat.state(s, bin(q.yaw));
+        if self.lat.begin((g, bin(goal_yaw))).is_err() {
+            self.counters.lattice_errors += 1;
+            self.end_query();
+            return Phase::Idle;
+        }
+        Phase::Prepare
+    }
+
+    /// Publish the best plan so far.
+    fn publish(&mut self, bus: &mut Bus, now: u64, cost: u32, eps_milli: u32, optimal: bool) {
+        self.search.path(&mut self.states);
+        let trav = self.lat.trav();
+        let bin = std::f64::consts::TAU / self.lat.angles() as f64;
+        let mut msg = PlanMsg {
+            query: self.counters.queries,
+            cost_ms: cost,
+            eps: eps_milli as f32 / 1000.0,
+            optimal,
+            poses: heapless::Vec::new(),
+        };
+        for &s in &self.states {
+            let (node, theta) = self.lat.decode(s);
+            let Some(n) = trav.node(node) else { continue };
+            let p = trav.position(n);
+            let yaw = theta as f64 * bin;
+            if msg
+                .poses
+                .push([p[0] as f32, p[1] as f32, p[2] as f32, yaw as f32])
+                .is_err()
+            {
+                break;
+            }
+        }
+        self.counters.plans_published += 1;
+        bus.plan.publish(now, msg);
+    }
+
+    /// Milliseconds of mission time since the query began.
+    fn since_query_ms(&self, now: u64) -> u32 {
+        ((now.saturating_sub(self.query.began_ns)) / 1_000_000).min(u32::MAX as u64) as u32
+    }
+
+    fn search_step(&mut self, bus: &mut Bus, now: u64, units: u32) {
+        let before = self.search.stats().expansions;
+        let progress = self.search.step(&self.lat, units);
+        let stats = self.search.stats();
+        self.counters.expansions += stats.expansions - before;
+        match progress {
+            Progress::Searching => {
+                if stats.expansions >= self.max_expansions {
+                    if self.query.solved {
+                        self.counters.abandoned += 1;
+                    } else {
+                        self.counters.no_path += 1;
+                    }
+                    self.end_query();
+                }
+            }
+            Progress::Solution { eps_milli, cost } => {
+                self.solution(now);
+                self.query.eps_milli = eps_milli;
+                self.publish(bus, now, cost, eps_milli, false);
+            }
+            Progress::Optimal { cost } => {
+                self.solution(now);
+                self.query.eps_milli = 1000;
+                self.counters.optimal += 1;
+                let ms = self.since_query_ms(now);
+                if self.optimal_ms.len() < HISTORY {
+                    self.optimal_ms.push(ms);
+                }
+                self.publish(bus, now, cost, 1000, true);
+                self.end_query();
+            }
+            Progress::NoPath | Progress::Idle => {
+                self.counters.no_path += 1;
+                self.end_query();
+            }
+        }
+    }
+
+    /// A plan exists: the first one's latency is kept.
+    fn solution(&mut self, now: u64) {
+        if !self.query.solved {
+            self.query.solved = true;
+            self.counters.solved += 1;
+            let ms = self.since_query_ms(now);
+            if self.first_ms.len() < HISTORY {
+                self.first_ms.push(ms);
+            }
+        }
+    }
+}
+
+impl Task<Bus> for PlannerTask {
+    fn run(&mut self, _bus: &mut Bus, _cx: &Context) {}
+
+    /// One phase's work for one quantum of units: graph nodes grown, nodes
+    /// scanned, lattice preparation units, or expansions.
+    fn step(&mut self, bus: &mut Bus, cx: &Context, quantum: u32) -> StepResult {
+        let units = quantum.max(1);
+        match self.phase {
+            Phase::Idle => {
+                if !self.begin_query(bus, cx.time_ns) {
+                    return StepResult::Idle;
+                }
+            }
+            Phase::Grow { candidate } => {
+                let mls = bus.surface.serving();
+                if self
+                    .lat
+                    .trav_mut()
+                    .grow(mls, units as usize * GROW_PER_UNIT)
+                {
+                    let trav = self.lat.trav();
+                    let s = trav.stats();
+                    self.counters.nodes_max = self.counters.nodes_max.max(s.nodes as u64);
+                    if s.full {
+                        self.counters.graphs_full += 1;
+                    }
+                    let start_drivable = trav.node(0).is_some_and(|n| n.class.is_drivable());
+                    if start_drivable {
+                        self.phase = Phase::Pick { next: 0 };
+                    } else if !self.begin_growth(mls, candidate + 1) {
+                        return StepResult::Idle;
+                    }
+                }
+            }
+            Phase::Pick { next } => {
+                self.phase = self.pick(next, units as usize);
+            }
+            Phase::Prepare => {
+                if self.lat.prepare(bus.surface.serving(), units as usize) {
+                    self.search.start(
+                        &self.lat,
+                        self.query.start_state,
+                        self.lat.goal_state(),
+                        self.params,
+                    );
+                    self.phase = Phase::Search;
+                }
+            }
+            Phase::Search => self.search_step(bus, cx.time_ns, units),
+        }
+        if self.phase == Phase::Idle {
+            StepResult::Idle
+        } else {
+            StepResult::Continue
+        }
+    }
+}
+
+/// Horizontal ground patches near the rover, about `base_height_m` under
+/// base_link, nearest first: where the graph may grow from.
+fn start_candidates(
+    mls: &MlsMap,
+    base: [f64; 3],
+    base_height_m: f64,
+    tol_m: f64,
+    out: &mut heapless::Vec<(i32, i32, f32), START_CANDIDATES>,
+) {
+    out.clear();
+    let res = mls.params().resolution_m;
+    let (cx, cy) = mls.cell_of(base[0], base[1]);
+    let reach = (START_REACH_M / res).ceil() as i32;
+    let ground = (base[2] - base_height_m) as f32;
+    let tol = (2.0 * tol_m + 0.1) as f32;
+    // (distance², cell, height), nearest first, ties by cell.
+    let mut best: heapless::Vec<(i64, i32, i32, f32), START_CANDIDATES> = heapless::Vec::new();
+    for dy in -reach..=reach {
+        for dx in -reach..=reach {
+            let d2 = (dx * dx + dy * dy) as i64;
+            if d2 > (reach * reach) as i64 {
+                continue;
+            }
+            let cell = mls.cell(cx + dx, cy + dy);
+            let Some(p) = cell
+                .iter()
+                .filter(|p| p.kind == PatchKind::Horizontal && (p.mean - ground).abs() <= tol)
+                .min_by(|a, b| (a.mean - ground).abs().total_cmp(&(b.mean - ground).abs()))
+            else {
+                continue;
+            };
+            let e = (d2, cx + dx, cy + dy, p.mean);
+            let key = |v: &(i64, i32, i32, f32)| (v.0, v.1, v.2);
+            let at = best
+                .iter()
+                .position(|b| key(&e) < key(b))
+                .unwrap_or(best.len());
+            if at < START_CANDIDATES {
+                if best.is_full() {
+                    best.pop();
+                }
+                let _ = best.insert(at, e);
+            }
+        }
+    }
+    for (_, ix, iy, z) in best {
+        let _ = out.push((ix, iy, z));
+    }
+}
+
+/// The point `ahead` metres along the route from the rover's projection
+/// on segment `segment`, and the route's heading there.
+fn point_ahead(
+    route: &[[f64; 2]],
+    looped: bool,
+    segment: usize,
+    at: [f64; 2],
+    ahead: f64,
+) -> ([f64; 2], f64) {
+    let n = route.len();
+    let segments = if looped { n } else { n.saturating_sub(1) };
+    let seg = |i: usize| (route[i % n], route[(i + 1) % n]);
+    let mut i = segment.min(segments.saturating_sub(1));
+    let (a, b) = seg(i);
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len = dx.hypot(dy);
+    // From the projection on the current segment.
+    let t = if len > 0.0 {
+        (((at[0] - a[0]) * dx + (at[1] - a[1]) * dy) / (len * len)).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let mut left = ahead + t * len;
+    loop {
+        let (a, b) = seg(i);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len = dx.hypot(dy);
+        let last = !looped && i + 1 >= segments;
+        if left <= len || last || i >= segment + segments {
+            let f = if len > 0.0 {
+                (left / len).min(1.0)
+            } else {
+                0.0
+            };
+            return ([a[0] + f * dx, a[1] + f * dy], dy.atan2(dx));
+        }
+        left -= len;
+        i += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::SlamPose;
+    use crate::surface_maps::SurfaceMaps;
+    use speleo_mapping::mls::MlsParams;
+    use speleo_scheduler::Mode;
+
+    fn cx(frame: u64) -> Context {
+        Context {
+            frame,
+            time_ns: frame * 10_000_000,
+            minor_frame_ns: 10_000_000,
+            mode: Mode::Nominal,
+            degraded: false,
+        }
+    }
+
+    /// A 12 x 4 m floor seen densely, 0.17 m under base_link at (1, 2),
+    /// with a boulder in the middle of the way.
+    fn bus_on_a_floor() -> Box<Bus> {
+        let mut bus = Bus::new();
+        bus.surface = SurfaceMaps::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+        let mut pts = Vec::new();
+        for i in 0..240 {
+            for j in 0..80 {
+                let (x, y) = (i as f64 * 0.05 + 0.025, j as f64 * 0.05 + 0.025);
+                let rock = (x - 6.0).powi(2) + (y - 2.0).powi(2) < 0.36;
+                pts.push([x, y, if rock { 0.5 } else { 0.0 }]);
+            }
+        }
+        let m = bus.surface.active();
+        bus.surface.map_mut(m).insert_points(&pts);
+        bus.slam.publish(
+            0,
+            SlamPose {
+                position: [1.0, 2.0, 0.17],
+                orientation: [1.0, 0.0, 0.0, 0.0],
+                keyframes: 1,
+            },
+        );
+        bus
+    }
+
+    fn task(route: &[[f64; 2]]) -> PlannerTask {
+        let cfg = PlannerConfig::default();
+        let prims = speleo_planner::primitives::generate(&Default::default());
+        PlannerTask::new(&cfg, &prims, 0.1, route, false, 0.17).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// Steps until the first query ends; the frames it took.
+    fn run_query(t: &mut PlannerTask, bus: &mut Bus) -> u64 {
+        for f in 0..20_000 {
+            let r = t.step(bus, &cx(f), 32);
+            if r == StepResult::Idle && f > 0 {
+                return f;
+            }
+        }
+        panic!("the query never ended: {:?}", t.counters);
+    }
+
+    #[test]
+    fn a_query_plans_around_the_boulder_to_the_route_ahead_the_same_every_time() {
+        let route = [[1.0, 2.0], [11.0, 2.0]];
+        let mut bus = bus_on_a_floor();
+        let mut t = task(&route);
+        let frames = run_query(&mut t, &mut bus);
+        let c = t.counters;
+        assert_eq!((c.queries, c.solved, c.optimal), (1, 1, 1), "{c:?}");
+        let plan = bus.plan.get().unwrap_or_else(|| panic!("no plan")).value.clone();
+        assert!(plan.optimal && plan.eps == 1.0);
+        let (first, last) = (plan.poses[0], plan.poses[plan.poses.len() - 1]);
+        // From the rover to the route 8 m ahead, heading along it.
+        assert!((first[0] - 1.0).abs() < 0.2 && (first[1] - 2.0).abs() < 0.2, "{first:?}");
+        assert!((last[0] - 9.0).abs() < 0.2 && (last[1] - 2.0).abs() < 0.2, "{last:?}");
+        assert!(last[3].abs() < 0.2, "{last:?}");
+        // Clear of the 0.6 m boulder by at least the body's half width.
+        for p in &plan.poses {
+            let d = ((p[0] as f64 - 6.0).powi(2) + (p[1] as f64 - 2.0).powi(2)).sqrt();
+            assert!(d > 0.6 + 0.3, "{p:?} is {d:.2} m from the boulder's centre");
+        }
+        // Every figure again, from a fresh task.
+        let mut again_bus = bus_on_a_floor();
+        let mut again = task(&route);
+        assert_eq!(run_query(&mut again, &mut again_bus), frames);
+        assert_eq!(again.counters, t.counters);
+        assert_eq!(again_bus.plan.get().map(|p| p.value.clone()), Some(plan));
+        assert_eq!(again.first_ms, t.first_ms);
+    }
+
+    #[test]
+    fn a_route_beyond_the_map_gives_no_goal_and_nothing_is_published() {
+        let mut bus = bus_on_a_floor();
+        let mut t = task(&[[1.0, 2.0], [-30.0, 2.0]]);
+        run_query(&mut t, &mut bus);
+        assert_eq!((t.counters.queries, t.counters.no_goal), (1, 1), "{:?}", t.counters);
+        assert!(bus.plan.get().is_none());
+    }
+
+    #[test]
+    fn the_point_ahead_follows_the_route_and_stops_at_its_end() {
+        let route = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]];
+        let (p, yaw) = point_ahead(&route, false, 0, [2.0, 0.5], 5.0);
+        assert!((p[0] - 7.0).abs() < 1e-9 && p[1].abs() < 1e-9, "{p:?}");
+        assert!(yaw.abs() < 1e-9);
+        let (p, yaw) = point_ahead(&route, false, 0, [8.0, 0.0], 5.0);
+        assert!(
+            (p[0] - 10.0).abs() < 1e-9 && (p[1] - 3.0).abs() < 1e-9,
+            "{p:?}"
+        );
+        assert!((yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+        // Past the end of an open route: its end.
+        let (p, _) = point_ahead(&route, false, 1, [10.0, 8.0], 5.0);
+        assert!(
+            (p[0] - 10.0).abs() < 1e-9 && (p[1] - 10.0).abs() < 1e-9,
+            "{p:?}"
+        );
+        // A looped route wraps around to its start.
+        let (p, _) = point_ahead(&route, true, 1, [10.0, 8.0], 5.0);
+        let back = 3.0 / 200f64.sqrt();
+        assert!(
+            (p[0] - 10.0 * (1.0 - back)).abs() < 1e-9 && (p[1] - 10.0 * (1.0 - back)).abs() < 1e-9,
+            "{p:?}"
+        );
+    }
+}
