@@ -1,7 +1,8 @@
-//! The maps of a simulated run: the report's `maps` section, the TSDF mesh
-//! of the keyframes against the world's true surface, the exported scans
-//! meshed again by `speleo mesh --scans`, and `speleo mesh --record` giving
-//! the run's own mesh back from its recording.
+//! The maps of a simulated run: the report's `maps` and `planner`
+//! sections, the TSDF mesh of the keyframes against the world's true
+//! surface, the exported scans meshed again by `speleo mesh --scans`, and
+//! `speleo mesh --record` giving the run's own mesh back from its
+//! recording.
 
 use std::path::Path;
 
@@ -115,6 +116,14 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
         "{}",
         r["scheduler"]
     );
+    // The planner plans on these maps as they grow: a query every 10 s,
+    // each proven optimal.
+    let p = &r["planner"];
+    let k = |key: &str| p[key].as_u64().unwrap_or(u64::MAX);
+    assert!(k("calls") >= 2 && k("solved") >= 1, "{p}");
+    assert!(k("optimal") >= 1 && k("plans_published") >= 1, "{p}");
+    assert!(k("graph_nodes_max") > 1000 && k("graphs_full") == 0, "{p}");
+    assert!(p["first_solution_ms_max"].as_u64().is_some(), "{p}");
 
     // The mesh (map frame) against the true tube (world frame). SLAM's
     // first keyframe in both frames gives the map's place in the world.

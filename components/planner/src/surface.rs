@@ -122,6 +122,9 @@ pub struct SurfaceLattice {
     origin: (i32, i32),
     dims: (usize, usize),
     goal: (u32, u32),
+    /// Any heading at the goal node will do: the goal is an extra state
+    /// (number `nodes x angles`) that every heading there reaches for free.
+    any_heading: bool,
     prep: Prep,
     /// Dijkstra's queue (at most one entry per link relaxed: 8 a node).
     open: BinaryHeap<Reverse<(u32, u32)>>,
@@ -187,6 +190,7 @@ impl SurfaceLattice {
             origin: (0, 0),
             dims: (0, 0),
             goal: (0, 0),
+            any_heading: false,
             prep: Prep::None,
             open: BinaryHeap::with_capacity(8 * n + 1),
             path: RefCell::new(Vec::with_capacity(256)),
@@ -206,12 +210,20 @@ impl SurfaceLattice {
     /// Most states any graph within the node limit gives (the search's
     /// storage).
     pub fn max_state_count(&self) -> usize {
-        self.trav.params().max_nodes * self.angles as usize
+        self.trav.params().max_nodes * self.angles as usize + 1
     }
 
     /// Heading bins.
     pub fn angles(&self) -> u32 {
         self.angles
+    }
+
+    /// Prepare a query to node `goal` at any heading (see
+    /// [`begin`](Self::begin)).
+    pub fn begin_any_heading(&mut self, goal: u32) -> Result<(), String> {
+        self.begin((goal, 0))?;
+        self.any_heading = true;
+        Ok(())
     }
 
     /// Prepare a query to node `goal` at heading bin `goal_theta` over the
@@ -253,6 +265,7 @@ impl SurfaceLattice {
         self.heuristic.resize(n, INFINITE_COST);
         self.open.clear();
         self.goal = goal;
+        self.any_heading = false;
         self.prep = Prep::Solid(0);
         Ok(())
     }
@@ -452,7 +465,17 @@ impl SurfaceLattice {
     }
 
     pub fn goal_state(&self) -> u32 {
-        self.state(self.goal.0, self.goal.1)
+        if self.any_heading {
+            self.virtual_goal()
+        } else {
+            self.state(self.goal.0, self.goal.1)
+        }
+    }
+
+    /// The extra state of an any-heading goal (its node decodes past the
+    /// graph's nodes: it has no position).
+    fn virtual_goal(&self) -> u32 {
+        self.trav.nodes().len() as u32 * self.angles
     }
 
     /// Primitives kept per heading.
@@ -650,14 +673,19 @@ fn surface_action(
 
 impl Lattice for SurfaceLattice {
     fn max_successors(&self) -> usize {
-        self.actions.iter().map(Vec::len).max().unwrap_or(0)
+        // And the any-heading goal.
+        self.actions.iter().map(Vec::len).max().unwrap_or(0) + 1
     }
 
     fn state_count(&self) -> usize {
-        self.trav.nodes().len() * self.angles as usize
+        // One more: the any-heading goal.
+        self.trav.nodes().len() * self.angles as usize + 1
     }
 
     fn heuristic(&self, s: u32) -> u32 {
+        if self.any_heading && s == self.virtual_goal() {
+            return 0;
+        }
         // Before the preparation is done nothing is reachable.
         self.heuristic
             .get(self.decode(s).0 as usize)
@@ -670,6 +698,9 @@ impl Lattice for SurfaceLattice {
         let (n, th) = self.decode(s);
         if self.prep != Prep::Ready || n as usize >= self.clear.len() {
             return;
+        }
+        if self.any_heading && n == self.goal.0 {
+            out.push((self.virtual_goal(), 0));
         }
         let mut path = self.path.borrow_mut();
         for a in &self.actions[th as usize] {

@@ -28,6 +28,7 @@ const SAMPLE_M: f64 = 0.05;
 /// Named poses of a world: x, y, ground z, yaw.
 pub fn waypoints(w: &World) -> Vec<(String, [f64; 4])> {
     let mut out = vec![("start".to_string(), w.start)];
+    out.extend(w.named.iter().cloned());
     let r = &w.route;
     if r.len() < 2 {
         return out;
@@ -55,19 +56,44 @@ pub fn waypoints(w: &World) -> Vec<(String, [f64; 4])> {
             next += 10.0;
         }
     }
-    // A level wherever the route settles 1.5 m above or below the last one.
+    // A level wherever the route settles 1.5 m above or below the last
+    // one, over or under another floor (a slope down a cave is no level).
+    let stacked = |i: usize| floor_over_or_under(w, r[i]);
     let mut level_z = r[0][2];
-    let mut level = 0;
-    out.push(("level0".into(), pose(0)));
+    let mut levels = vec![("level0".to_string(), pose(0))];
     for i in 1..r.len() - 1 {
         let flat = (r[i + 1][2] - r[i][2]).abs() < 0.02;
-        if flat && (r[i][2] - level_z).abs() > 1.5 {
-            level += 1;
+        if flat && (r[i][2] - level_z).abs() > 1.5 && stacked(i) {
             level_z = r[i][2];
-            out.push((format!("level{level}"), pose(i)));
+            levels.push((format!("level{}", levels.len()), pose(i)));
         }
     }
+    if levels.len() > 1 {
+        out.extend(levels);
+    }
     out
+}
+
+/// Whether the world has a floor (a face within 20 degrees of level,
+/// facing up) more than 1.5 m above or below `p`.
+fn floor_over_or_under(w: &World, p: [f64; 3]) -> bool {
+    let m = &w.mesh;
+    (0..m.triangles.len()).any(|t| {
+        let (_, n) = m.triangle_geometry(t);
+        if n[2] < 20f64.to_radians().cos() {
+            return false;
+        }
+        let v = m.triangles[t].map(|i| m.vertices[i as usize].map(f64::from));
+        let inside = {
+            // Same side of all three edges.
+            let side = |a: [f64; 3], b: [f64; 3]| {
+                (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+            };
+            let s = [side(v[0], v[1]), side(v[1], v[2]), side(v[2], v[0])];
+            s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0)
+        };
+        inside && ((v[0][2] + v[1][2] + v[2][2]) / 3.0 - p[2]).abs() > 1.5
+    })
 }
 
 /// A pose by name, or `x,y,z,yaw` (metres, degrees).
@@ -353,5 +379,13 @@ mod tests {
         assert!((p[3] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         assert!(pose_of("1,2,3", &named).is_err_and(|e| e.contains("four")));
         assert!(pose_of("1,2,nan,0", &named).is_err());
+    }
+
+    #[test]
+    fn a_cave_sloping_down_has_no_levels() {
+        let w = World::build("lava-tube", 1).unwrap_or_else(|e| panic!("{e}"));
+        let named = waypoints(&w);
+        assert!(named.iter().all(|(n, _)| !n.starts_with("level")));
+        assert!(named.iter().any(|(n, _)| n == "m200"));
     }
 }

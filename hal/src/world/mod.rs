@@ -3,6 +3,7 @@
 //! mesh (the ground truth rays are cast against), the area of floor a rover
 //! could reach (for coverage figures), and a start pose.
 
+pub mod boulder_field;
 pub mod garage;
 pub mod lava_tube;
 pub mod mesh;
@@ -17,7 +18,7 @@ use std::path::Path;
 pub use mesh::{CleanStats, Mesh, MeshError, Surface};
 
 /// Worlds known by name.
-pub const NAMES: [&str; 3] = ["lava-tube", "garage", "flat"];
+pub const NAMES: [&str; 4] = ["lava-tube", "garage", "boulders", "flat"];
 
 #[derive(Clone, Debug)]
 pub struct World {
@@ -29,13 +30,17 @@ pub struct World {
     /// A drivable route of floor points from the start (empty when the
     /// world does not know one): what scripted drives follow.
     pub route: Vec<[f64; 3]>,
+    /// Poses the world names besides its start and route (x, y, floor z,
+    /// yaw), for planning tests.
+    pub named: Vec<(String, [f64; 4])>,
 }
 
 /// Steepest floor a rover counts as reachable in a mesh file.
 const WALKABLE_DEG: f64 = 20.0;
 
 impl World {
-    /// A named world (`lava-tube`, `garage`, `flat`) or a mesh file (a path
+    /// A named world (`lava-tube`, `garage`, `boulders`, `flat`) or a mesh
+    /// file (a path
     /// ending in .ply, .obj or .stl).
     pub fn build(name: &str, seed: u64) -> Result<World, MeshError> {
         match name {
@@ -47,6 +52,7 @@ impl World {
                     floor_area_m2: t.floor_area_m2,
                     start: t.start,
                     route: t.route,
+                    named: Vec::new(),
                 })
             }
             "garage" => {
@@ -57,6 +63,18 @@ impl World {
                     floor_area_m2: g.floor_area_m2,
                     start: g.start,
                     route: g.route,
+                    named: Vec::new(),
+                })
+            }
+            "boulders" => {
+                let f = boulder_field::generate(seed);
+                Ok(World {
+                    name: name.into(),
+                    mesh: f.mesh,
+                    floor_area_m2: f.floor_area_m2,
+                    start: boulder_field::START,
+                    route: Vec::new(),
+                    named: vec![("goal".into(), boulder_field::GOAL)],
                 })
             }
             "flat" => {
@@ -73,6 +91,7 @@ impl World {
                     floor_area_m2: 200.0 * 200.0,
                     start: [0.0; 4],
                     route: Vec::new(),
+                    named: Vec::new(),
                 })
             }
             path if ["ply", "obj", "stl"]
@@ -121,6 +140,7 @@ impl World {
             floor_area_m2: area,
             start,
             route: Vec::new(),
+            named: Vec::new(),
         }
     }
 }
