@@ -42,6 +42,10 @@ pub struct SurfaceParams {
     /// The body's rectangle (along and across the heading).
     pub body_length_m: f64,
     pub body_width_m: f64,
+    /// Clearance cost: a primitive's time is multiplied by `1 + weight x
+    /// (1 - d / R)`, `d` the least distance from its path to something in
+    /// the body's band and `R` the body's circumscribed radius (0: off).
+    pub clearance_weight: f64,
 }
 
 impl Default for SurfaceParams {
@@ -52,6 +56,7 @@ impl Default for SurfaceParams {
             turn_speed_rad_s: 0.5,
             body_length_m: 0.9,
             body_width_m: 0.7,
+            clearance_weight: 0.0,
         }
     }
 }
@@ -145,7 +150,7 @@ const POPS_PER_UNIT: usize = 96;
 
 /// Occupied intervals kept per cell; a cell with more patches has the rest
 /// merged into the last.
-pub const SOLID_PER_CELL: usize = 4;
+pub const SOLID_PER_CELL: usize = 8;
 
 impl SurfaceLattice {
     /// The lattice over `trav` (whose graph may be grown later, through
@@ -490,6 +495,7 @@ impl SurfaceLattice {
         path.push(n);
         let mut cur = n;
         let mut all_clear = self.clear[n as usize];
+        let mut nearest_d2 = self.blocked_d2[n as usize];
         let mut length_3d = 0.0;
         let mut length_xy = 0.0;
         let res = self.trav.resolution();
@@ -513,6 +519,7 @@ impl SurfaceLattice {
             length_3d += (xy * xy + dz * dz).sqrt();
             cur = next;
             all_clear &= self.clear[cur as usize];
+            nearest_d2 = nearest_d2.min(self.blocked_d2[cur as usize]);
             path.push(cur);
         }
         // The body over the plane of the nearest path node (where some
@@ -546,7 +553,14 @@ impl SurfaceLattice {
         };
         let linear = a.length_m * slope_factor / speed;
         let turn = a.turn_rad / self.p.turn_speed_rad_s;
-        let ms = (1000.0 * linear.max(turn)).ceil() as u64 * a.cost_mult as u64;
+        let crowding = if nearest_d2 == u16::MAX || self.p.clearance_weight <= 0.0 {
+            0.0
+        } else {
+            let d = (nearest_d2 as f64).sqrt() * res;
+            (1.0 - d / circumscribed_radius(&self.p)).clamp(0.0, 1.0)
+        };
+        let time = linear.max(turn) * (1.0 + self.p.clearance_weight * crowding);
+        let ms = (1000.0 * time).ceil() as u64 * a.cost_mult as u64;
         Some((cur, ms.min(INFINITE_COST as u64 - 1) as u32))
     }
 

@@ -41,6 +41,10 @@ struct Plan {
 }
 
 fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
+    plan_with(m, start, goal, SurfaceParams::default())
+}
+
+fn plan_with(m: &MlsMap, start: [f64; 4], goal: [f64; 4], params: SurfaceParams) -> Plan {
     let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
     trav.build(m, [start[0], start[1], start[2]])
         .unwrap_or_else(|e| panic!("{e}"));
@@ -55,8 +59,8 @@ fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
         };
     };
     let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, 16);
-    let mut lat = SurfaceLattice::new(trav, &prims, SurfaceParams::default(), 200 * 200)
-        .unwrap_or_else(|e| panic!("{e}"));
+    let mut lat =
+        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
     lat.prepare_all(m, (g, bin(goal[3])))
         .unwrap_or_else(|e| panic!("{e}"));
     let mut a = AraStar::new(lat.max_state_count(), lat.max_successors());
@@ -167,4 +171,72 @@ fn a_lattice_prepared_in_slices_equals_one_prepared_at_once() {
     assert!(!again.is_ready());
     again.successors(0, &mut a);
     assert!(a.is_empty());
+}
+
+#[test]
+fn a_level_under_two_slabs_and_a_roof_is_planned_on() {
+    // Three decks 3 m apart, each slab seen from below and above, and a
+    // roof: six patches in every cell. Planning on any deck must see
+    // only what lies in its own body band.
+    let mut m = MlsMap::new(MlsParams {
+        max_patches_per_cell: 8,
+        ..MlsParams::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 6.0), (0.0, 3.0), |_, _| 0.0);
+    for deck in [3.0, 6.0] {
+        surface(&mut m, (0.0, 6.0), (0.0, 3.0), |_, _| deck - 0.4);
+        surface(&mut m, (0.0, 6.0), (0.0, 3.0), |_, _| deck);
+    }
+    surface(&mut m, (0.0, 6.0), (0.0, 3.0), |_, _| 8.75);
+    for z in [0.0, 3.0, 6.0] {
+        let p = plan(&m, [1.0, 1.5, z, 0.0], [5.0, 1.5, z, 0.0]);
+        assert!(p.cost.is_some(), "no plan on the deck at {z} m");
+    }
+}
+
+#[test]
+fn a_clearance_weight_keeps_the_path_farther_from_a_rock() {
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 10.0), (0.0, 4.0), |_, _| 0.0);
+    // A 0.4 m rock, 0.5 m tall, just off the straight line.
+    let mut h = 0.05;
+    while h <= 0.5 {
+        surface(&mut m, (4.8, 5.2), (1.2, 1.6), |_, _| h);
+        h += 0.05;
+    }
+    let (start, goal) = ([1.0, 2.0, 0.0, 0.0], [9.0, 2.0, 0.0, 0.0]);
+    // Least distance from the rock's centre to the path's segments.
+    let closest = |p: &Plan| {
+        p.path
+            .windows(2)
+            .map(|w| {
+                let (a, b) = (w[0], w[1]);
+                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+                let t = (((5.0 - a[0]) * dx + (1.4 - a[1]) * dy) / (dx * dx + dy * dy).max(1e-12))
+                    .clamp(0.0, 1.0);
+                (a[0] + t * dx - 5.0).hypot(a[1] + t * dy - 1.4)
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let plain = plan(&m, start, goal);
+    let wary = plan_with(
+        &m,
+        start,
+        goal,
+        SurfaceParams {
+            clearance_weight: 5.0,
+            ..SurfaceParams::default()
+        },
+    );
+    let (Some(c0), Some(c1)) = (plain.cost, wary.cost) else {
+        panic!("no plan");
+    };
+    assert!(c1 >= c0, "{c1} < {c0}");
+    assert!(
+        closest(&wary) > closest(&plain),
+        "{:.2} m, {:.2} m without the weight",
+        closest(&wary),
+        closest(&plain)
+    );
 }

@@ -35,6 +35,9 @@ pub struct PlannerConfig {
     /// The body's rectangle checked at every pose of a primitive.
     pub body_length_m: f64,
     pub body_width_m: f64,
+    /// Extra cost near obstacles: travel time times `1 + weight x (1 - d /
+    /// R)` (see the planner README); 0 plans for time alone.
+    pub clearance_weight: f64,
     /// An SBPL `.mprim` file at the map's resolution; empty: the
     /// generated set for the rover (`speleo primitives`).
     pub mprim: String,
@@ -60,6 +63,7 @@ impl Default for PlannerConfig {
             turn_speed_rad_s: s.turn_speed_rad_s,
             body_length_m: s.body_length_m,
             body_width_m: s.body_width_m,
+            clearance_weight: s.clearance_weight,
             mprim: String::new(),
         }
     }
@@ -140,6 +144,13 @@ impl PlannerConfig {
         ] {
             range(k, v, 0.01, 10.0, "0.01..=10")?;
         }
+        range(
+            "planner.clearance_weight",
+            self.clearance_weight,
+            0.0,
+            100.0,
+            "0..=100",
+        )?;
         Ok(())
     }
 
@@ -159,6 +170,7 @@ impl PlannerConfig {
             turn_speed_rad_s: self.turn_speed_rad_s,
             body_length_m: self.body_length_m,
             body_width_m: self.body_width_m,
+            clearance_weight: self.clearance_weight,
         }
     }
 

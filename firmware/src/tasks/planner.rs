@@ -15,7 +15,7 @@
 use speleo_mapping::mls::{MlsMap, PatchKind};
 use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
 use speleo_planner::mprim::MprimFile;
-use speleo_planner::surface::SurfaceLattice;
+use speleo_planner::surface::{SurfaceLattice, SOLID_PER_CELL};
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
@@ -107,6 +107,8 @@ struct Query {
 
 pub struct PlannerTask {
     lat: SurfaceLattice,
+    /// Cells of the lattice's map table.
+    grid_cells: usize,
     search: AraStar,
     params: AraParams,
     route: Vec<[f64; 2]>,
@@ -143,12 +145,8 @@ impl PlannerTask {
         base_height_m: f64,
     ) -> Result<Self, String> {
         let trav = TravMap::new(cfg.trav_params()).map_err(|e| e.to_string())?;
-        let lat = SurfaceLattice::new(
-            trav,
-            prims,
-            cfg.surface_params(),
-            cfg.window_cells(resolution_m),
-        )?;
+        let grid_cells = cfg.window_cells(resolution_m);
+        let lat = SurfaceLattice::new(trav, prims, cfg.surface_params(), grid_cells)?;
         if (prims.resolution_m - resolution_m).abs() > 1e-6 * resolution_m {
             return Err(format!(
                 "the primitives are for {} m cells, the map has {resolution_m} m",
@@ -157,6 +155,7 @@ impl PlannerTask {
         }
         let search = AraStar::new(lat.max_state_count(), lat.max_successors());
         Ok(PlannerTask {
+            grid_cells,
             lat,
             search,
             params: AraParams {
@@ -188,8 +187,9 @@ impl PlannerTask {
         // (4 bytes each), a heap entry (16) and an INCONS slot (4).
         let search = self.lat.max_state_count() * 44;
         // Per node: the graph's node (~72), index links and the lattice's
-        // per-node arrays (~20), eight queue entries (8 each).
-        search + max_nodes * (72 + 20 + 64)
+        // per-node arrays (~20), eight queue entries (8 each); per cell of
+        // the window, the map table's intervals.
+        search + max_nodes * (72 + 20 + 64) + self.grid_cells * 8 * SOLID_PER_CELL
     }
 
     /// Begin a query if one is due and possible.
