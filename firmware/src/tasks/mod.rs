@@ -13,3 +13,16 @@ pub mod odometry;
 pub mod planner;
 pub mod recorder;
 pub mod slam;
+
+/// The context of frame `frame` of 10 ms frames in nominal mode, for task
+/// tests.
+#[cfg(test)]
+pub(crate) fn test_context(frame: u64) -> speleo_scheduler::Context {
+    speleo_scheduler::Context {
+        frame,
+        time_ns: frame * 10_000_000,
+        minor_frame_ns: 10_000_000,
+        mode: speleo_scheduler::Mode::Nominal,
+        degraded: false,
+    }
+}

@@ -93,17 +93,8 @@ impl Task<Bus> for OdometryTask {
 mod tests {
     use super::*;
     use speleo_hal::canopen::supervisor::DrivesState;
-    use speleo_scheduler::Mode;
 
-    fn cx(frame: u64) -> Context {
-        Context {
-            frame,
-            time_ns: frame * 10_000_000,
-            minor_frame_ns: 10_000_000,
-            mode: Mode::Nominal,
-            degraded: false,
-        }
-    }
+    use crate::tasks::test_context as cx;
 
     /// All four drives report `counts` at `t_ns`, except those in `late`.
     fn drives(bus: &mut Bus, t_ns: u64, counts: i32, late: &[usize]) {

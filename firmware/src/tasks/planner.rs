@@ -557,17 +557,8 @@ mod tests {
     use crate::bus::SlamPose;
     use crate::surface_maps::SurfaceMaps;
     use speleo_mapping::mls::MlsParams;
-    use speleo_scheduler::Mode;
 
-    fn cx(frame: u64) -> Context {
-        Context {
-            frame,
-            time_ns: frame * 10_000_000,
-            minor_frame_ns: 10_000_000,
-            mode: Mode::Nominal,
-            degraded: false,
-        }
-    }
+    use crate::tasks::test_context as cx;
 
     /// A 12 x 4 m floor seen densely, 0.17 m under base_link at (1, 2),
     /// with a boulder in the middle of the way.
