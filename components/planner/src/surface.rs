@@ -305,15 +305,6 @@ impl SurfaceLattice {
         Ok(())
     }
 
-    /// Nodes with room for the body over them, and in every orientation
-    /// (once prepared).
-    pub fn room_counts(&self) -> (usize, usize) {
-        (
-            self.body_free.iter().filter(|&&b| b).count(),
-            self.clear.iter().filter(|&&b| b).count(),
-        )
-    }
-
     /// What the preparation is doing: "none", "map", "room", "cost-to-go"
     /// or "ready".
     pub fn phase(&self) -> &'static str {

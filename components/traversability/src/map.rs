@@ -187,18 +187,6 @@ impl TravMap {
         self.resolution
     }
 
-    /// Cells of the bounding box of the nodes' cells.
-    pub fn cell_span(&self) -> usize {
-        let mut b = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
-        for n in &self.nodes {
-            b = (b.0.min(n.ix), b.1.min(n.iy), b.2.max(n.ix), b.3.max(n.iy));
-        }
-        if self.nodes.is_empty() {
-            return 0;
-        }
-        (b.2 - b.0 + 1) as usize * (b.3 - b.1 + 1) as usize
-    }
-
     /// Centre of node `n`'s cell on its ground.
     pub fn position(&self, n: &Node) -> [f64; 3] {
         [
@@ -280,8 +268,10 @@ impl TravMap {
     }
 
     /// Classify and expand up to `units` nodes (or set the final classes
-    /// of as many); true once the graph is complete. `mls` must be the map
-    /// the growth began on, unchanged.
+    /// of as many); true once the graph is complete. `mls` should be the
+    /// map the growth began on: one that changes between slices (the
+    /// planner's, as keyframes arrive) gives a graph whose nodes were
+    /// classified on different states of it, still linked consistently.
     pub fn grow(&mut self, mls: &MlsMap, units: usize) -> bool {
         let mut left = units.max(1);
         while left > 0 && !self.complete {
