@@ -3,7 +3,15 @@
 //! A pure-pursuit controller steers toward the point of the path one
 //! lookahead distance ahead; the body command (speed, yaw rate) becomes wheel
 //! speeds through the skid-steer model. Paths have a fixed capacity so the
-//! controller never allocates.
+//! controller never allocates. [`limits`] bounds the command's
+//! accelerations; [`safety`] stops the rover before it leaves the map,
+//! tips or digs in.
+
+pub mod limits;
+pub mod safety;
+
+pub use limits::{AccelLimiter, AccelLimits};
+pub use safety::{GroundProbe, Probe, SafetyMonitor, SafetyParams, StopReason};
 
 /// Most waypoints in one path.
 pub const MAX_WAYPOINTS: usize = 512;
@@ -75,6 +83,64 @@ impl PurePursuit {
 
     pub fn done(&self) -> bool {
         self.done
+    }
+
+    /// Follow `path` from its start (a new plan).
+    pub fn set_path(&mut self, path: Path, looped: bool) {
+        self.path = path;
+        self.looped = looped;
+        self.segment = 0;
+        self.done = false;
+    }
+
+    /// Stop following: the path counts as ended.
+    pub fn abandon(&mut self) {
+        self.done = true;
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Path length left from the rover's projection on its segment, m
+    /// (infinite on a loop).
+    pub fn remaining_m(&self, x: f64, y: f64) -> f64 {
+        if self.looped {
+            return f64::INFINITY;
+        }
+        if self.done || self.segments() == 0 {
+            return 0.0;
+        }
+        let (a, b) = self.seg(self.segment);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len = libm::hypot(dx, dy);
+        let t = if len > 0.0 {
+            (((x - a[0]) * dx + (y - a[1]) * dy) / (len * len)).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        let mut left = (1.0 - t) * len;
+        for i in self.segment + 1..self.segments() {
+            let (a, b) = self.seg(i);
+            left += libm::hypot(b[0] - a[0], b[1] - a[1]);
+        }
+        left
+    }
+
+    /// Distance from (x, y) to the current segment, m.
+    pub fn cross_track_m(&self, x: f64, y: f64) -> f64 {
+        if self.segments() == 0 {
+            return 0.0;
+        }
+        let (a, b) = self.seg(self.segment);
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 {
+            (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        libm::hypot(a[0] + t * dx - x, a[1] + t * dy - y)
     }
 
     pub fn segment(&self) -> usize {

@@ -1,0 +1,375 @@
+//! The safety monitor: the rover is stopped before it leaves the part of
+//! the map it can drive on, when it tilts too far, when it has strayed
+//! from its path, or when it is stuck (commanded motion without progress).
+//! The paper's exploration depends on it: terrain in a cave is unknown, the
+//! rover slips and skids, and a stop is followed by fresh maps and a new
+//! plan.
+//!
+//! The map is reached through [`GroundProbe`], so the monitor is tested on
+//! synthetic ground and runs on board over the MLS map.
+
+/// What the map says about a point ahead at the expected ground height.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Probe {
+    /// Ground within the tolerance.
+    Ground,
+    /// No ground seen there: unobserved, or a drop.
+    NoGround,
+    /// Something at body height over the ground.
+    Blocked,
+}
+
+/// The map as the monitor sees it.
+pub trait GroundProbe {
+    /// Whether there is ground at (`x`, `y`) within `tol_m` of height `z`.
+    fn probe(&self, x: f64, y: f64, z: f64, tol_m: f64) -> Probe;
+}
+
+/// Why the monitor stopped the rover. The numbers are the report's and
+/// the bus's codes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum StopReason {
+    /// Ahead there is no ground over a longer stretch than a sensor gap.
+    LeavingMap = 1,
+    /// Something at body height just ahead.
+    Blocked = 2,
+    /// Roll or pitch beyond the limit.
+    Tilt = 3,
+    /// Commanded to move without moving.
+    Stuck = 4,
+    /// Farther from the path than the plan's margin.
+    OffPath = 5,
+}
+
+impl StopReason {
+    pub const ALL: [StopReason; 5] = [
+        StopReason::LeavingMap,
+        StopReason::Blocked,
+        StopReason::Tilt,
+        StopReason::Stuck,
+        StopReason::OffPath,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            StopReason::LeavingMap => "leaving_map",
+            StopReason::Blocked => "blocked",
+            StopReason::Tilt => "tilt",
+            StopReason::Stuck => "stuck",
+            StopReason::OffPath => "off_path",
+        }
+    }
+
+    pub fn from_code(c: u8) -> Option<StopReason> {
+        StopReason::ALL.into_iter().find(|r| *r as u8 == c)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SafetyParams {
+    pub max_tilt_deg: f64,
+    /// Stuck: commanded motion for this long ...
+    pub stuck_after_s: f64,
+    /// ... without moving this far or turning this much.
+    pub stuck_progress_m: f64,
+    pub stuck_turn_rad: f64,
+    /// From base_link to the front of the wheels, m.
+    pub front_m: f64,
+    /// How far beyond the front the ground is probed, and in which steps, m.
+    pub probe_ahead_m: f64,
+    pub probe_step_m: f64,
+    /// The longest stretch without ground that counts as a sensor gap, m
+    /// (the HDL-32E's rings leave gaps on the ground).
+    pub max_gap_m: f64,
+    /// Within this much of the front, something at body height stops the
+    /// rover, m.
+    pub blocked_within_m: f64,
+    /// Ground height tolerance: a step, plus the slope over the distance.
+    pub max_step_m: f64,
+    pub max_slope_deg: f64,
+    /// Ground under base_link, m.
+    pub base_height_m: f64,
+    pub max_cross_track_m: f64,
+}
+
+impl Default for SafetyParams {
+    fn default() -> Self {
+        SafetyParams {
+            max_tilt_deg: 30.0,
+            stuck_after_s: 5.0,
+            stuck_progress_m: 0.15,
+            stuck_turn_rad: 0.3,
+            front_m: 0.5,
+            probe_ahead_m: 0.8,
+            probe_step_m: 0.1,
+            max_gap_m: 0.6,
+            blocked_within_m: 0.2,
+            max_step_m: 0.2,
+            max_slope_deg: 30.0,
+            base_height_m: 0.19,
+            max_cross_track_m: 0.8,
+        }
+    }
+}
+
+/// The rover's state as the monitor needs it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MonitorInput {
+    pub t_s: f64,
+    /// base_link in the map frame, m, and its heading, rad.
+    pub position: [f64; 3],
+    pub yaw: f64,
+    /// Angle between the body's up axis and the vertical, deg.
+    pub tilt_deg: f64,
+    /// The command about to be sent.
+    pub v: f64,
+    pub w: f64,
+    /// Path left, and the distance from the path, m.
+    pub remaining_m: f64,
+    pub cross_track_m: f64,
+}
+
+/// See the module documentation.
+#[derive(Clone, Debug)]
+pub struct SafetyMonitor {
+    p: SafetyParams,
+    /// Where and when the current stretch of commanded motion was last
+    /// seen to make progress.
+    anchor: Option<(f64, [f64; 2], f64)>,
+}
+
+impl SafetyMonitor {
+    pub fn new(p: SafetyParams) -> Self {
+        SafetyMonitor { p, anchor: None }
+    }
+
+    pub fn params(&self) -> &SafetyParams {
+        &self.p
+    }
+
+    /// Forget the motion history (a new plan).
+    pub fn reset(&mut self) {
+        self.anchor = None;
+    }
+
+    /// Whether the command must not be sent, and why.
+    pub fn check(&mut self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
+        if s.tilt_deg > self.p.max_tilt_deg {
+            return Some(StopReason::Tilt);
+        }
+        if self.stuck(s) {
+            return Some(StopReason::Stuck);
+        }
+        if s.cross_track_m > self.p.max_cross_track_m {
+            return Some(StopReason::OffPath);
+        }
+        self.ahead(s, map)
+    }
+
+    fn stuck(&mut self, s: &MonitorInput) -> bool {
+        let commanded = s.v.abs() > 0.05 || s.w.abs() > 0.2;
+        if !commanded {
+            self.anchor = None;
+            return false;
+        }
+        let here = [s.position[0], s.position[1]];
+        let Some((t0, at, yaw0)) = self.anchor else {
+            self.anchor = Some((s.t_s, here, s.yaw));
+            return false;
+        };
+        let moved = libm::hypot(here[0] - at[0], here[1] - at[1]);
+        let turned = wrap(s.yaw - yaw0).abs();
+        if moved > self.p.stuck_progress_m || turned > self.p.stuck_turn_rad {
+            self.anchor = Some((s.t_s, here, s.yaw));
+            return false;
+        }
+        s.t_s - t0 > self.p.stuck_after_s
+    }
+
+    /// The ground ahead in the direction of travel, up to the end of the path.
+    fn ahead(&self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
+        if s.v.abs() < 0.01 {
+            return None;
+        }
+        let dir = if s.v > 0.0 { 1.0 } else { -1.0 };
+        let (sn, cs) = (libm::sin(s.yaw), libm::cos(s.yaw));
+        let ground = s.position[2] - self.p.base_height_m;
+        let slope = libm::tan(self.p.max_slope_deg.to_radians());
+        // Beyond the path's end the rover will not go.
+        let reach = self.p.probe_ahead_m.min(s.remaining_m.max(0.0));
+        let steps = (reach / self.p.probe_step_m).floor() as usize;
+        let mut gap = 0.0;
+        for k in 0..=steps {
+            let d = k as f64 * self.p.probe_step_m;
+            let r = self.p.front_m + d;
+            let (x, y) = (
+                s.position[0] + dir * r * cs,
+                s.position[1] + dir * r * sn,
+            );
+            match map.probe(x, y, ground, self.p.max_step_m + r * slope) {
+                Probe::Ground => gap = 0.0,
+                Probe::NoGround => {
+                    gap += self.p.probe_step_m;
+                    if gap > self.p.max_gap_m {
+                        return Some(StopReason::LeavingMap);
+                    }
+                }
+                Probe::Blocked if d <= self.p.blocked_within_m => {
+                    return Some(StopReason::Blocked);
+                }
+                Probe::Blocked => gap = 0.0,
+            }
+        }
+        None
+    }
+}
+
+fn wrap(a: f64) -> f64 {
+    let tau = core::f64::consts::TAU;
+    a - tau * libm::floor((a + core::f64::consts::PI) / tau)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Flat ground at z = 0 for x < `edge`, nothing beyond; a wall at
+    /// x = `wall` when set.
+    struct Ledge {
+        edge: f64,
+        wall: Option<f64>,
+    }
+
+    impl GroundProbe for Ledge {
+        fn probe(&self, x: f64, _y: f64, z: f64, tol: f64) -> Probe {
+            if self.wall.is_some_and(|w| x >= w) {
+                return Probe::Blocked;
+            }
+            if x < self.edge && z.abs() <= tol {
+                Probe::Ground
+            } else {
+                Probe::NoGround
+            }
+        }
+    }
+
+    fn input(x: f64, t: f64) -> MonitorInput {
+        MonitorInput {
+            t_s: t,
+            position: [x, 0.0, 0.19],
+            yaw: 0.0,
+            tilt_deg: 2.0,
+            v: 0.3,
+            w: 0.0,
+            remaining_m: 10.0,
+            cross_track_m: 0.0,
+        }
+    }
+
+    #[test]
+    fn driving_toward_an_edge_stops_before_the_wheels_reach_it() {
+        let map = Ledge {
+            edge: 5.0,
+            wall: None,
+        };
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        let mut x = 0.0;
+        let mut t = 0.0;
+        let stop = loop {
+            if let Some(r) = m.check(&input(x, t), &map) {
+                break r;
+            }
+            x += 0.3 * 0.02;
+            t += 0.02;
+            assert!(x < 6.0, "never stopped");
+        };
+        assert_eq!(stop, StopReason::LeavingMap);
+        // The front of the wheels is still on the ground.
+        assert!(x + SafetyParams::default().front_m < 5.0, "stopped at {x}");
+    }
+
+    #[test]
+    fn a_gap_shorter_than_a_ring_gap_and_the_paths_end_do_not_stop() {
+        struct Gappy;
+        impl GroundProbe for Gappy {
+            fn probe(&self, x: f64, _y: f64, _z: f64, _tol: f64) -> Probe {
+                if (2.0..2.45).contains(&x) {
+                    Probe::NoGround
+                } else {
+                    Probe::Ground
+                }
+            }
+        }
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        for k in 0..100 {
+            assert_eq!(m.check(&input(k as f64 * 0.03, k as f64 * 0.1), &Gappy), None);
+        }
+        // The path ends short of the edge: nothing beyond it is probed.
+        let map = Ledge {
+            edge: 5.0,
+            wall: None,
+        };
+        let mut near_end = input(4.2, 0.0);
+        near_end.remaining_m = 0.2;
+        assert_eq!(m.check(&near_end, &map), None);
+    }
+
+    #[test]
+    fn tilt_wall_and_straying_stop() {
+        let flat = Ledge {
+            edge: 100.0,
+            wall: None,
+        };
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        let mut s = input(0.0, 0.0);
+        s.tilt_deg = 35.0;
+        assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
+        let mut s = input(0.0, 0.0);
+        s.cross_track_m = 1.0;
+        assert_eq!(m.check(&s, &flat), Some(StopReason::OffPath));
+        let wall = Ledge {
+            edge: 100.0,
+            wall: Some(0.6),
+        };
+        assert_eq!(m.check(&input(0.0, 0.0), &wall), Some(StopReason::Blocked));
+        // Reversing away from the wall is allowed.
+        let mut back = input(0.0, 0.0);
+        back.v = -0.2;
+        assert_eq!(m.check(&back, &wall), None);
+    }
+
+    #[test]
+    fn commanded_motion_without_progress_is_stuck() {
+        let flat = Ledge {
+            edge: 100.0,
+            wall: None,
+        };
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        let mut stuck_at = None;
+        for k in 0..400 {
+            let t = k as f64 * 0.02;
+            // Creeping at 1 cm/s: commanded 0.3 m/s.
+            if let Some(r) = m.check(&input(0.01 * t, t), &flat) {
+                stuck_at = Some((t, r));
+                break;
+            }
+        }
+        let (t, r) = stuck_at.expect("stuck");
+        assert_eq!(r, StopReason::Stuck);
+        assert!((5.0..5.1).contains(&t), "{t}");
+        // Moving normally never is.
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        for k in 0..1000 {
+            let t = k as f64 * 0.02;
+            assert_eq!(m.check(&input(0.3 * t, t), &flat), None);
+        }
+        // Standing still as commanded is not stuck either.
+        let mut s = input(0.0, 0.0);
+        s.v = 0.0;
+        for k in 0..1000 {
+            s.t_s = k as f64 * 0.02;
+            assert_eq!(m.check(&s, &flat), None);
+        }
+    }
+}

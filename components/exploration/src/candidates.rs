@@ -1,0 +1,196 @@
+//! Exploration candidates: the graph's frontier and explorable patches,
+//! each scored by its distance from the rover, the unexplored cells around
+//! it and, when a target is given, its distance from the target (the
+//! paper's three criteria). The scan runs over the graph in slices and
+//! keeps the best few; ties go to the lower node index, so the same graph
+//! gives the same choice.
+
+use speleo_traversability::{TravClass, TravMap, Window};
+
+use crate::coverage::CoverageMap;
+
+/// Candidates kept, best first: the planner tries them in turn.
+pub const MAX_CANDIDATES: usize = 8;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CandidateParams {
+    /// Candidates nearer the rover than this give too little progress, m.
+    pub min_distance_m: f64,
+    /// Cells within this radius count toward "unexplored nearby", m.
+    pub unexplored_radius_m: f64,
+    /// Score: metres of distance from the rover ...
+    pub weight_distance: f64,
+    /// ... less this per m^2 of unexplored ground nearby ...
+    pub weight_unexplored: f64,
+    /// ... plus this per metre from the target, when there is one.
+    pub weight_target: f64,
+    /// Patches this near the border of the growth window are not
+    /// candidates (the graph stops there, the map does not), m.
+    pub border_margin_m: f64,
+    /// Patches this near a goal that failed are not tried again, m.
+    pub rejected_radius_m: f64,
+}
+
+impl Default for CandidateParams {
+    fn default() -> Self {
+        CandidateParams {
+            min_distance_m: 2.0,
+            unexplored_radius_m: 1.0,
+            weight_distance: 1.0,
+            weight_unexplored: 2.0,
+            weight_target: 0.0,
+            border_margin_m: 1.0,
+            rejected_radius_m: 1.5,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    pub node: u32,
+    pub position: [f64; 3],
+    /// Lower is better.
+    pub score: f64,
+    /// Unexplored area nearby, m^2.
+    pub unexplored_m2: f64,
+}
+
+/// A scan of the graph for candidates, in slices.
+#[derive(Clone, Debug)]
+pub struct CandidateScan {
+    p: CandidateParams,
+    next: usize,
+    rover: [f64; 2],
+    target: Option<[f64; 2]>,
+    window: Option<Window>,
+    best: heapless::Vec<Candidate, MAX_CANDIDATES>,
+}
+
+impl CandidateScan {
+    pub fn new(p: CandidateParams) -> Self {
+        CandidateScan {
+            p,
+            next: 0,
+            rover: [0.0; 2],
+            target: None,
+            window: None,
+            best: heapless::Vec::new(),
+        }
+    }
+
+    pub fn params(&self) -> &CandidateParams {
+        &self.p
+    }
+
+    /// Start a scan for a rover at `rover` on a graph grown within `window`.
+    pub fn begin(&mut self, rover: [f64; 2], target: Option<[f64; 2]>, window: Option<Window>) {
+        self.next = 0;
+        self.rover = rover;
+        self.target = target;
+        self.window = window;
+        self.best.clear();
+    }
+
+    /// Score up to `nodes` more nodes; true when the whole graph is scanned.
+    pub fn step(
+        &mut self,
+        trav: &TravMap,
+        coverage: &CoverageMap,
+        rejected: &[[f64; 2]],
+        nodes: usize,
+    ) -> bool {
+        let all = trav.nodes();
+        let to = self.next.saturating_add(nodes.max(1)).min(all.len());
+        for i in self.next..to {
+            if let Some(c) = self.score(trav, coverage, rejected, i as u32) {
+                self.keep(c);
+            }
+        }
+        self.next = to;
+        to == all.len()
+    }
+
+    /// Best first.
+    pub fn best(&self) -> &[Candidate] {
+        &self.best
+    }
+
+    fn keep(&mut self, c: Candidate) {
+        let at = self
+            .best
+            .iter()
+            .position(|b| c.score < b.score)
+            .unwrap_or(self.best.len());
+        if at < MAX_CANDIDATES {
+            if self.best.is_full() {
+                self.best.pop();
+            }
+            let _ = self.best.insert(at, c);
+        }
+    }
+
+    fn score(
+        &self,
+        trav: &TravMap,
+        coverage: &CoverageMap,
+        rejected: &[[f64; 2]],
+        i: u32,
+    ) -> Option<Candidate> {
+        let n = trav.node(i)?;
+        if !matches!(n.class, TravClass::Frontier | TravClass::Explorable) {
+            return None;
+        }
+        let res = trav.resolution();
+        if let Some(w) = self.window {
+            let m = (self.p.border_margin_m / res).ceil() as i32;
+            if n.ix < w.min.0 + m || n.iy < w.min.1 + m || n.ix > w.max.0 - m || n.iy > w.max.1 - m
+            {
+                return None;
+            }
+        }
+        let p = trav.position(n);
+        let d = (p[0] - self.rover[0]).hypot(p[1] - self.rover[1]);
+        if d < self.p.min_distance_m || coverage.covered(p[0], p[1]) {
+            return None;
+        }
+        let r2 = self.p.rejected_radius_m.powi(2);
+        if rejected
+            .iter()
+            .any(|q| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) <= r2)
+        {
+            return None;
+        }
+        let unexplored_m2 = unexplored_near(trav, n.ix, n.iy, self.p.unexplored_radius_m);
+        let mut score = self.p.weight_distance * d - self.p.weight_unexplored * unexplored_m2;
+        if let Some(t) = self.target {
+            score += self.p.weight_target * (p[0] - t[0]).hypot(p[1] - t[1]);
+        }
+        Some(Candidate {
+            node: i,
+            position: p,
+            score,
+            unexplored_m2,
+        })
+    }
+}
+
+/// Area within `radius_m` of cell (ix, iy) where the graph has no patch,
+/// m^2, sampled on every other cell (the graph's gaps are unobserved
+/// ground, walls and what lies behind them).
+fn unexplored_near(trav: &TravMap, ix: i32, iy: i32, radius_m: f64) -> f64 {
+    let res = trav.resolution();
+    let r = (radius_m / res).round() as i32;
+    let mut empty = 0u32;
+    for dy in (-r..=r).step_by(2) {
+        for dx in (-r..=r).step_by(2) {
+            if dx * dx + dy * dy > r * r {
+                continue;
+            }
+            if trav.nodes_in_cell(ix + dx, iy + dy).next().is_none() {
+                empty += 1;
+            }
+        }
+    }
+    // Each sample stands for 2 x 2 cells.
+    empty as f64 * 4.0 * res * res
+}

@@ -1,0 +1,222 @@
+//! The exploration behaviour's state: what has been covered, the track
+//! home, the goals that failed, and whether the rover is exploring,
+//! returning or done.
+
+use crate::coverage::CoverageMap;
+use crate::trail::Trail;
+
+/// Failed goals remembered (older ones are forgotten first).
+pub const MAX_REJECTED: usize = 64;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExplorerParams {
+    /// The rover "has been near" what lies within this radius, m.
+    pub coverage_radius_m: f64,
+    pub coverage_resolution_m: f64,
+    /// Side of the coverage map's square around the start, m.
+    pub coverage_extent_m: f64,
+    /// Exploring ends after this long, s (the return follows).
+    pub time_limit_s: f64,
+    /// ... or when this many queries in a row found nothing to explore
+    /// (the maps change between them).
+    pub empty_queries_to_return: u32,
+    /// Home is reached within this distance, m.
+    pub home_tolerance_m: f64,
+    /// Track points kept for the way home, and their spacing, m.
+    pub trail_points: usize,
+    pub trail_spacing_m: f64,
+}
+
+impl Default for ExplorerParams {
+    fn default() -> Self {
+        ExplorerParams {
+            coverage_radius_m: 3.0,
+            coverage_resolution_m: 0.25,
+            coverage_extent_m: 600.0,
+            time_limit_s: 3000.0,
+            empty_queries_to_return: 3,
+            home_tolerance_m: 0.4,
+            trail_points: 4096,
+            trail_spacing_m: 1.0,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    Exploring,
+    /// Going home, and why.
+    Returning(ReturnReason),
+    /// Home.
+    Finished(ReturnReason),
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReturnReason {
+    /// Nothing explorable is reachable.
+    Explored,
+    TimeLimit,
+}
+
+/// See the module documentation.
+#[derive(Clone, Debug)]
+pub struct Explorer {
+    p: ExplorerParams,
+    home: [f64; 3],
+    coverage: CoverageMap,
+    trail: Trail,
+    rejected: heapless::Deque<[f64; 2], MAX_REJECTED>,
+    /// Scratch: the rejected goals as a slice.
+    rejected_flat: heapless::Vec<[f64; 2], MAX_REJECTED>,
+    mode: Mode,
+    empty_queries: u32,
+}
+
+impl Explorer {
+    /// Exploration from `home` (base_link in the map frame).
+    pub fn new(p: ExplorerParams, home: [f64; 3]) -> Self {
+        let mut trail = Trail::new(p.trail_points, p.trail_spacing_m);
+        trail.record(home);
+        Explorer {
+            coverage: CoverageMap::new([home[0], home[1]], p.coverage_extent_m, p.coverage_resolution_m),
+            trail,
+            rejected: heapless::Deque::new(),
+            rejected_flat: heapless::Vec::new(),
+            mode: Mode::Exploring,
+            empty_queries: 0,
+            home,
+            p,
+        }
+    }
+
+    pub fn params(&self) -> &ExplorerParams {
+        &self.p
+    }
+
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    pub fn home(&self) -> [f64; 3] {
+        self.home
+    }
+
+    pub fn coverage(&self) -> &CoverageMap {
+        &self.coverage
+    }
+
+    pub fn trail(&self) -> &Trail {
+        &self.trail
+    }
+
+    /// The rover is at `p` at mission time `t_s`.
+    pub fn observe(&mut self, t_s: f64, p: [f64; 3]) {
+        self.coverage.mark(p[0], p[1], self.p.coverage_radius_m);
+        self.trail.record(p);
+        if self.mode == Mode::Exploring && t_s >= self.p.time_limit_s {
+            self.mode = Mode::Returning(ReturnReason::TimeLimit);
+        }
+        if let Mode::Returning(r) = self.mode {
+            let d = (p[0] - self.home[0]).hypot(p[1] - self.home[1]);
+            if d <= self.p.home_tolerance_m {
+                self.mode = Mode::Finished(r);
+            }
+        }
+    }
+
+    /// A goal that could not be planned to or failed in simulation.
+    pub fn reject(&mut self, at: [f64; 2]) {
+        if self.rejected.is_full() {
+            self.rejected.pop_front();
+        }
+        let _ = self.rejected.push_back(at);
+        self.rejected_flat.clear();
+        for r in self.rejected.iter() {
+            let _ = self.rejected_flat.push(*r);
+        }
+    }
+
+    pub fn rejected(&self) -> &[[f64; 2]] {
+        &self.rejected_flat
+    }
+
+    /// A query found candidates (`true`) or none.
+    pub fn query_result(&mut self, found: bool) {
+        if found {
+            self.empty_queries = 0;
+            return;
+        }
+        self.empty_queries += 1;
+        if self.mode == Mode::Exploring && self.empty_queries >= self.p.empty_queries_to_return {
+            self.mode = Mode::Returning(ReturnReason::Explored);
+        }
+    }
+
+    /// Going home from `at`: goal points `ahead_m`, then a metre less at a
+    /// time down to `nearest_m`, back along the track (home itself when
+    /// near).
+    pub fn home_goals(
+        &self,
+        at: [f64; 2],
+        ahead_m: f64,
+        nearest_m: f64,
+        out: &mut impl FnMut([f64; 3]),
+    ) {
+        let Some(from) = self.trail.earliest_near(at, 2.0 * self.p.trail_spacing_m) else {
+            out(self.home);
+            return;
+        };
+        let mut ahead = ahead_m;
+        while ahead >= nearest_m {
+            if let Some(g) = self.trail.back_from(from, ahead) {
+                out(g);
+            }
+            ahead -= 1.0;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn explores_until_nothing_is_left_then_returns_and_finishes_home() {
+        let mut e = Explorer::new(ExplorerParams::default(), [0.0, 0.0, 0.2]);
+        for k in 0..20 {
+            e.observe(k as f64, [k as f64, 0.0, 0.2]);
+        }
+        e.query_result(false);
+        e.query_result(true);
+        assert_eq!(e.mode(), Mode::Exploring);
+        for _ in 0..3 {
+            e.query_result(false);
+        }
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        let mut goals = Vec::new();
+        e.home_goals([19.0, 0.0], 8.0, 2.0, &mut |g| goals.push(g));
+        assert_eq!(goals.len(), 7);
+        // From the earliest track point within 2 m (x = 17), 8 m back.
+        assert!((goals[0][0] - 9.0).abs() < 1e-9, "{goals:?}");
+        e.observe(100.0, [0.3, 0.0, 0.2]);
+        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+    }
+
+    #[test]
+    fn the_time_limit_sends_the_rover_home_and_rejections_are_bounded() {
+        let mut e = Explorer::new(
+            ExplorerParams {
+                time_limit_s: 10.0,
+                ..ExplorerParams::default()
+            },
+            [0.0; 3],
+        );
+        e.observe(11.0, [5.0, 0.0, 0.0]);
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::TimeLimit));
+        for k in 0..100 {
+            e.reject([k as f64, 0.0]);
+        }
+        assert_eq!(e.rejected().len(), MAX_REJECTED);
+        assert_eq!(e.rejected()[0], [36.0, 0.0]);
+    }
+}

@@ -1,0 +1,115 @@
+//! The way home: the rover's own track, kept a point every metre. Going
+//! home follows it backwards from the earliest point near the rover, so a
+//! loop driven on the way out is cut short on the way back.
+
+/// Points of the track, m apart.
+#[derive(Clone, Debug)]
+pub struct Trail {
+    spacing_m: f64,
+    points: Vec<[f64; 3]>,
+    capacity: usize,
+}
+
+impl Trail {
+    /// Room for `capacity` points (the track's length in `spacing_m`).
+    pub fn new(capacity: usize, spacing_m: f64) -> Self {
+        Trail {
+            spacing_m,
+            points: Vec::with_capacity(capacity),
+            capacity,
+        }
+    }
+
+    pub fn points(&self) -> &[[f64; 3]] {
+        &self.points
+    }
+
+    /// Add the rover's position when it is a spacing from the last point.
+    /// When full, every other point is dropped and the spacing doubles, so
+    /// the track still reaches home.
+    pub fn record(&mut self, p: [f64; 3]) {
+        if let Some(l) = self.points.last() {
+            if (p[0] - l[0]).hypot(p[1] - l[1]) < self.spacing_m {
+                return;
+            }
+        }
+        if self.points.len() == self.capacity {
+            let mut k = 0;
+            for i in (0..self.points.len()).step_by(2) {
+                self.points[k] = self.points[i];
+                k += 1;
+            }
+            self.points.truncate(k);
+            self.spacing_m *= 2.0;
+        }
+        self.points.push(p);
+    }
+
+    /// The earliest point within `reach_m` of `at` (the nearest when none
+    /// is that near).
+    pub fn earliest_near(&self, at: [f64; 2], reach_m: f64) -> Option<usize> {
+        let d = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
+        self.points.iter().position(|p| d(p) <= reach_m).or_else(|| {
+            (0..self.points.len()).min_by(|&a, &b| {
+                d(&self.points[a])
+                    .total_cmp(&d(&self.points[b]))
+                    .then(a.cmp(&b))
+            })
+        })
+    }
+
+    /// Walking home from point `from`: the point `ahead_m` farther back
+    /// along the track (home itself at the end).
+    pub fn back_from(&self, from: usize, ahead_m: f64) -> Option<[f64; 3]> {
+        let mut i = from.min(self.points.len().checked_sub(1)?);
+        let mut left = ahead_m;
+        while i > 0 {
+            let (a, b) = (self.points[i], self.points[i - 1]);
+            let d = (a[0] - b[0]).hypot(a[1] - b[1]);
+            if d >= left {
+                let f = left / d;
+                return Some([
+                    a[0] + f * (b[0] - a[0]),
+                    a[1] + f * (b[1] - a[1]),
+                    a[2] + f * (b[2] - a[2]),
+                ]);
+            }
+            left -= d;
+            i -= 1;
+        }
+        Some(self.points[0])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn going_home_cuts_a_loop_short_and_ends_at_home() {
+        let mut t = Trail::new(1000, 1.0);
+        // Out 10 m, round a loop and back past x = 5.
+        for k in 0..=10 {
+            t.record([k as f64, 0.0, 0.0]);
+        }
+        for k in 0..=5 {
+            t.record([10.0 - k as f64, 3.0, 0.0]);
+        }
+        let from = t.earliest_near([5.0, 2.5], 2.6).expect("near");
+        assert_eq!(t.points()[from], [5.0, 0.0, 0.0]);
+        let g = t.back_from(from, 2.5).expect("goal");
+        assert!((g[0] - 2.5).abs() < 1e-9 && g[1] == 0.0, "{g:?}");
+        assert_eq!(t.back_from(from, 50.0), Some([0.0, 0.0, 0.0]));
+    }
+
+    #[test]
+    fn a_full_trail_thins_out_and_keeps_home() {
+        let mut t = Trail::new(8, 1.0);
+        for k in 0..40 {
+            t.record([k as f64, 0.0, 0.0]);
+        }
+        assert!(t.points().len() <= 8);
+        assert_eq!(t.points()[0], [0.0, 0.0, 0.0]);
+        assert!(t.points().last().unwrap()[0] >= 32.0);
+    }
+}

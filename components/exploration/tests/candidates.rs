@@ -1,0 +1,93 @@
+//! Candidates on a synthetic corridor: a floor between two walls, seen to
+//! x = 12 m, closed behind the rover at x = 0.
+
+use speleo_exploration::{CandidateParams, CandidateScan, CoverageMap, MAX_CANDIDATES};
+use speleo_mapping::mls::{MlsMap, MlsParams};
+use speleo_traversability::{TravMap, TravParams, Window};
+
+fn points(m: &mut MlsMap, x: (f64, f64), y: (f64, f64), z: (f64, f64)) {
+    let mut pts = Vec::new();
+    let mut h = z.0;
+    while h <= z.1 + 1e-9 {
+        let mut px = x.0 + 0.025;
+        while px < x.1 {
+            let mut py = y.0 + 0.025;
+            while py < y.1 {
+                pts.push([px, py, h]);
+                py += 0.05;
+            }
+            px += 0.05;
+        }
+        h += 0.05;
+    }
+    m.insert_points(&pts);
+}
+
+/// Floor over x in [-1, 12), y in [-1.5, 1.5); walls on both sides and
+/// behind x = -1.
+fn corridor() -> TravMap {
+    let mut m = MlsMap::new(MlsParams::default()).expect("mls");
+    points(&mut m, (-1.0, 12.0), (-1.5, 1.5), (0.0, 0.0));
+    points(&mut m, (-1.0, 12.0), (-1.7, -1.5), (0.0, 1.5));
+    points(&mut m, (-1.0, 12.0), (1.5, 1.7), (0.0, 1.5));
+    points(&mut m, (-1.2, -1.0), (-1.7, 1.7), (0.0, 1.5));
+    let mut t = TravMap::new(TravParams::default()).expect("trav");
+    t.build(&m, [0.0, 0.0, 0.0]).expect("build");
+    t
+}
+
+fn scan(
+    t: &TravMap,
+    cov: &CoverageMap,
+    rejected: &[[f64; 2]],
+    slice: usize,
+) -> Vec<speleo_exploration::Candidate> {
+    let mut s = CandidateScan::new(CandidateParams::default());
+    s.begin([0.0, 0.0], None, None);
+    while !s.step(t, cov, rejected, slice) {}
+    s.best().to_vec()
+}
+
+#[test]
+fn the_open_end_of_a_corridor_is_the_best_candidate() {
+    let t = corridor();
+    let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    cov.mark(0.0, 0.0, 3.0);
+    let best = scan(&t, &cov, &[], 100);
+    assert_eq!(best.len(), MAX_CANDIDATES);
+    // At the open end, where the map stops.
+    assert!(best[0].position[0] > 11.5, "{:?}", best[0]);
+    assert!(best[0].unexplored_m2 > 0.5, "{:?}", best[0]);
+    assert!(best.windows(2).all(|w| w[0].score <= w[1].score));
+    // Slices of any size give the same list.
+    assert_eq!(scan(&t, &cov, &[], 1), best);
+    assert_eq!(scan(&t, &cov, &[], usize::MAX), best);
+}
+
+#[test]
+fn covered_and_rejected_patches_are_not_candidates() {
+    let t = corridor();
+    let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    for k in 0..=12 {
+        cov.mark(k as f64, 0.0, 3.0);
+    }
+    assert!(scan(&t, &cov, &[], 100).is_empty());
+    let cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    let first = scan(&t, &cov, &[], 100)[0];
+    let p = [first.position[0], first.position[1]];
+    let after = scan(&t, &cov, &[p], 100);
+    assert!(after
+        .iter()
+        .all(|c| (c.position[0] - p[0]).hypot(c.position[1] - p[1]) > 1.5));
+}
+
+#[test]
+fn nothing_at_the_window_border_is_a_candidate() {
+    let t = corridor();
+    let cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    let w = Window::around(0.0, 0.0, 8.0, 0.1);
+    let mut s = CandidateScan::new(CandidateParams::default());
+    s.begin([0.0, 0.0], None, Some(w));
+    while !s.step(&t, &cov, &[], 100) {}
+    assert!(s.best().iter().all(|c| c.position[0] < 7.0));
+}
