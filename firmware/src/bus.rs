@@ -81,6 +81,11 @@ pub struct WheelCommand {
     pub wheel_speeds: [f64; 4],
     pub segment: u32,
     pub done: bool,
+    /// The plan being followed (its query number; 0: the configured path).
+    pub plan: u64,
+    /// Why the safety monitor stopped the rover on this plan
+    /// (`speleo_control::StopReason` code; 0: it did not).
+    pub stop: u8,
 }
 
 /// Poses a published plan holds at most.
@@ -97,8 +102,30 @@ pub struct PlanMsg {
     /// Proven bound on cost over the optimum (1: optimal).
     pub eps: f32,
     pub optimal: bool,
+    /// The query is over and this plan is to be driven (exploration);
+    /// earlier plans of a query only show its progress.
+    pub execute: bool,
     /// x, y, z, yaw.
     pub poses: heapless::Vec<[f32; 4], PLAN_POSES>,
+}
+
+/// Where the exploration is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExplorationPhase {
+    /// Not exploring (following a route).
+    #[default]
+    Off,
+    Exploring,
+    Returning,
+    /// Home: the mission is over.
+    Finished,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ExplorationStatus {
+    pub phase: ExplorationPhase,
+    /// The goal being driven to, when there is one.
+    pub goal: Option<[f64; 3]>,
 }
 
 /// What the health task concluded.
@@ -226,6 +253,8 @@ pub struct Bus {
     pub command: Latest<WheelCommand>,
     /// Written by the planner.
     pub plan: Latest<PlanMsg>,
+    /// The exploration's state, written by the planner.
+    pub exploration: ExplorationStatus,
     /// Frames to put on the CAN bus at the start of the next frame.
     pub can_tx: Fifo<CanFrame, 32>,
     /// Xbus messages for the IMU, sent at the start of the next frame.
@@ -260,6 +289,7 @@ impl Bus {
             surface: crate::surface_maps::SurfaceMaps::empty(),
             command: Latest::new(),
             plan: Latest::new(),
+            exploration: ExplorationStatus::default(),
             can_tx: Fifo::new(),
             imu_tx: Fifo::new(),
             imu_config: ConfigState::GoingToConfig,

@@ -7,8 +7,10 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+mod exploration;
 mod maps;
 mod planner;
+pub use exploration::ExplorationConfig;
 pub use maps::MapsConfig;
 pub use planner::PlannerConfig;
 
@@ -45,6 +47,7 @@ pub struct Config {
     pub slam: SlamConfig,
     pub maps: MapsConfig,
     pub planner: PlannerConfig,
+    pub exploration: ExplorationConfig,
     pub health: HealthConfig,
     pub record: RecordConfig,
     pub devices: DevicesConfig,
@@ -183,6 +186,16 @@ pub struct ControlConfig {
     pub max_yaw_rate: f64,
     /// Commands older than this are not sent; the wheels get zero.
     pub command_timeout_ms: u32,
+    /// Ramps of the body command: m/s^2 speeding up and braking, rad/s^2.
+    pub max_accel: f64,
+    pub max_decel: f64,
+    pub max_yaw_accel: f64,
+    /// The safety monitor (on plans the exploration follows): the rover
+    /// stops beyond this tilt, deg; after this long commanded without
+    /// progress, s; this far from its path, m.
+    pub max_tilt_deg: f64,
+    pub stuck_after_s: f64,
+    pub max_cross_track_m: f64,
 }
 
 impl Default for ControlConfig {
@@ -203,6 +216,12 @@ impl Default for ControlConfig {
             lookahead_m: 0.8,
             max_yaw_rate: 0.8,
             command_timeout_ms: 100,
+            max_accel: 0.5,
+            max_decel: 1.0,
+            max_yaw_accel: 2.0,
+            max_tilt_deg: 30.0,
+            stuck_after_s: 5.0,
+            max_cross_track_m: 0.8,
         }
     }
 }
@@ -671,6 +690,17 @@ impl Config {
         }
         self.maps.validate()?;
         self.planner.validate(self.maps.mls_resolution_m)?;
+        self.exploration.validate()?;
+        for (key, v, lo, hi, text) in [
+            ("control.max_accel", c.max_accel, 0.01, 20.0, "0.01..=20"),
+            ("control.max_decel", c.max_decel, 0.01, 20.0, "0.01..=20"),
+            ("control.max_yaw_accel", c.max_yaw_accel, 0.01, 50.0, "0.01..=50"),
+            ("control.max_tilt_deg", c.max_tilt_deg, 1.0, 90.0, "1..=90"),
+            ("control.stuck_after_s", c.stuck_after_s, 0.1, 600.0, "0.1..=600"),
+            ("control.max_cross_track_m", c.max_cross_track_m, 0.05, 50.0, "0.05..=50"),
+        ] {
+            range(key, v, lo, hi, text)?;
+        }
         let sl = &self.slam;
         range(
             "slam.keyframe_capacity",

@@ -5,6 +5,7 @@
 pub mod bus;
 pub mod cli;
 pub mod config;
+pub mod exploration_figures;
 pub mod keyframe_clouds;
 pub mod maps_output;
 pub mod mission;

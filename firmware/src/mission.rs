@@ -7,7 +7,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
-use speleo_control::{FollowerParams, Path, PurePursuit, SkidSteer};
+use speleo_control::{
+    AccelLimiter, AccelLimits, FollowerParams, Path, PurePursuit, SafetyMonitor, SafetyParams,
+    SkidSteer,
+};
 use speleo_hal::sim::TruthProbe;
 use speleo_hal::{cia402, Hardware};
 use speleo_odometry::OdometryParams;
@@ -64,6 +67,12 @@ pub struct TaskFigures {
 }
 
 pub struct MissionResult {
+    /// The exploration's figures (when exploring), and the graph of the
+    /// ground it mapped (map frame) with the map frame's origin and
+    /// heading in the world (simulation), for the coverage figures.
+    pub exploration: Option<crate::exploration_figures::ExplorationFigures>,
+    pub explored: Option<speleo_traversability::TravMap>,
+    pub world_from_map: Option<([f64; 3], f64)>,
     pub frames: u64,
     pub sim_time_s: f64,
     pub wall_time_s: f64,
@@ -167,11 +176,14 @@ fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, Mission
         };
         (idle, &[][..])
     };
-    // base_link is at the wheel hubs, which the legs hold at 0.8 to 1 times
-    // their length over the ground.
-    let base_height_m = 0.9 * cfg.rover.wheel_radius_m;
-    planner::PlannerTask::new(&pc, &prims, res, route, cfg.control.looped, base_height_m)
+    planner::PlannerTask::new(&pc, &prims, res, route, cfg.control.looped, base_height_m(cfg))
         .map_err(MissionError::Planner)
+}
+
+/// Height of base_link over the ground: it is at the wheel hubs, which the
+/// legs hold at 0.8 to 1 times their length over the ground.
+fn base_height_m(cfg: &Config) -> f64 {
+    0.9 * cfg.rover.wheel_radius_m
 }
 
 /// Park this thread once so that everything the standard library creates
@@ -252,6 +264,16 @@ pub fn run<C: FrameClock>(
     };
     let planner_on = maps_on && cfg.planner.enabled;
     let mut t_plan = build_planner(cfg, planner_on)?;
+    if planner_on && cfg.exploration.enabled {
+        let e = &cfg.exploration;
+        t_plan = t_plan.with_exploration(crate::tasks::exploration::Exploration::new(
+            e.explorer_params(),
+            e.candidate_params(),
+            e.target,
+            e.settle_s,
+        ));
+    }
+    let c = &cfg.control;
     let mut t_control = control::ControlTask::new(
         follower(cfg),
         SkidSteer {
@@ -260,7 +282,26 @@ pub fn run<C: FrameClock>(
             skid_factor: r.skid_factor,
             max_wheel_speed: r.max_wheel_speed,
         },
+        AccelLimiter::new(AccelLimits {
+            max_accel: c.max_accel,
+            max_decel: c.max_decel,
+            max_yaw_accel: c.max_yaw_accel,
+        }),
+        SafetyMonitor::new(SafetyParams {
+            max_tilt_deg: c.max_tilt_deg,
+            stuck_after_s: c.stuck_after_s,
+            max_cross_track_m: c.max_cross_track_m,
+            max_step_m: cfg.planner.max_step_m,
+            max_slope_deg: cfg.planner.max_slope_deg,
+            base_height_m: base_height_m(cfg),
+            front_m: 0.5 * cfg.planner.body_length_m,
+            ..SafetyParams::default()
+        }),
     );
+    let exploring = planner_on && cfg.exploration.enabled;
+    if exploring {
+        t_control = t_control.following_plans();
+    }
     let mut t_out =
         drive_output::DriveOutput::new(speleo_hal::canopen::supervisor::SupervisorParams {
             heartbeat_timeout_ns: cfg.health.drive_heartbeat_timeout_ms as u64 * 1_000_000,
@@ -327,7 +368,10 @@ pub fn run<C: FrameClock>(
     accounting::reset();
     accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
     loop {
-        if total.is_some_and(|n| exec.frames_run() >= n) || m.stop.load(Ordering::Relaxed) {
+        // An exploration that is home ends the mission.
+        let finished = bus.exploration.phase == crate::bus::ExplorationPhase::Finished;
+        if total.is_some_and(|n| exec.frames_run() >= n) || m.stop.load(Ordering::Relaxed) || finished
+        {
             break;
         }
         // The outside world moves on to the next frame's start before the
@@ -445,8 +489,36 @@ pub fn run<C: FrameClock>(
     });
     let planner =
         planner_on.then(|| crate::planner_figures::figures(&t_plan, cfg.planner.max_nodes));
+    let mut explored = None;
+    let exploration = t_plan.exploration().map(|e| {
+        use crate::exploration_figures as ef;
+        let mut f = ef::onboard(e, &t_control.counters);
+        let home = e.explorer.home();
+        let ground = [home[0], home[1], home[2] - base_height_m(cfg)];
+        explored = ef::reachable(bus.surface.serving(), ground, &cfg.planner.trav_params());
+        f.explored_area_m2 = explored.as_ref().map_or(0.0, ef::drivable_area_m2);
+        if m.truth.is_some() {
+            let s = &track.samples;
+            f.distance_m = Some(
+                s.windows(2)
+                    .map(|w| {
+                        let (a, b) = (w[0].1, w[1].1);
+                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                            .sqrt()
+                    })
+                    .sum(),
+            );
+            if let (Some(a), Some(b)) = (s.first(), s.last()) {
+                f.home_error_m = Some(((a.1[0] - b.1[0]).powi(2) + (a.1[1] - b.1[1]).powi(2)).sqrt());
+            }
+        }
+        f
+    });
     let t = tap.borrow();
     Ok(MissionResult {
+        exploration,
+        explored,
+        world_from_map: track.odom_origin,
         frames,
         sim_time_s: frames as f64 * minor_frame_us as f64 * 1e-6,
         wall_time_s: wall,

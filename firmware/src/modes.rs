@@ -217,6 +217,21 @@ fn print_summary(r: &MissionResult) {
             }
         );
     }
+    if let Some(e) = &r.exploration {
+        let opt = |v: Option<f64>, unit: &str| v.map_or("-".to_string(), |v| format!("{v:.2}{unit}"));
+        eprintln!(
+            "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {} collisions",
+            e.state,
+            e.return_reason.as_ref().map_or(String::new(), |r| format!(" ({r})")),
+            e.explored_area_m2,
+            opt(e.coverage_fraction, ""),
+            e.plans_executed,
+            e.goals_attempted,
+            opt(e.home_error_m, " m"),
+            opt(e.distance_m, " m"),
+            e.collisions.map_or("-".to_string(), |c| c.to_string()),
+        );
+    }
     if let Some(p) = &r.planner {
         let ms = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} ms"));
         eprintln!(
@@ -303,6 +318,7 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         progress,
     )?;
     finish_maps(&cfg, &a.out, &mut result)?;
+    exploration_truth(&cfg, &world, hw.collisions(), &mut result)?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
     if let Some(path) = &a.trajectory {
         let rows = result.slam.as_ref().map_or(&[][..], |s| &s.trajectory);
@@ -311,6 +327,40 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     }
     print_summary(&result);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The exploration's ground-truth figures: the chassis' strikes, and the
+/// fraction of the world's reachable floor that the explored map covers.
+fn exploration_truth(
+    cfg: &Config,
+    world: &speleo_hal::world::World,
+    collisions: u64,
+    r: &mut MissionResult,
+) -> Result<(), Error> {
+    use crate::exploration_figures as ef;
+    let Some(f) = r.exploration.as_mut() else {
+        return Ok(());
+    };
+    f.collisions = Some(collisions);
+    let (Some(explored), Some((origin, heading))) = (&r.explored, r.world_from_map) else {
+        return Ok(());
+    };
+    let truth_mls = crate::tools::plan_world::surface_map(world)?;
+    let [x, y, z, _] = world.start;
+    let Some(truth) = ef::reachable(&truth_mls, [x, y, z], &cfg.planner.trav_params()) else {
+        return Ok(());
+    };
+    let (s, c) = heading.sin_cos();
+    let to_world = |p: [f64; 3]| {
+        [
+            origin[0] + c * p[0] - s * p[1],
+            origin[1] + s * p[0] + c * p[1],
+            origin[2] + p[2],
+        ]
+    };
+    f.reachable_floor_m2 = Some(ef::drivable_area_m2(&truth));
+    f.coverage_fraction = Some(ef::coverage_fraction(&truth, explored, to_world, 0.2));
+    Ok(())
 }
 
 /// The simulated hardware as the configuration describes it.

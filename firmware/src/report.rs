@@ -25,6 +25,8 @@ pub struct Report<'a> {
     pub maps: Option<&'a crate::maps_output::MapsFigures>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub planner: Option<&'a crate::planner_figures::PlannerFigures>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub exploration: Option<&'a crate::exploration_figures::ExplorationFigures>,
 }
 
 #[derive(Serialize)]
@@ -106,6 +108,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         slam: r.slam.as_ref(),
         maps: r.maps_figures.as_ref(),
         planner: r.planner.as_ref(),
+        exploration: r.exploration.as_ref(),
     }
 }
 

@@ -29,6 +29,9 @@ pub struct CandidateParams {
     pub border_margin_m: f64,
     /// Patches this near a goal that failed are not tried again, m.
     pub rejected_radius_m: f64,
+    /// Patches with an obstacle patch this near are not candidates (the
+    /// rover's body would not fit there), m.
+    pub clearance_m: f64,
 }
 
 impl Default for CandidateParams {
@@ -41,6 +44,7 @@ impl Default for CandidateParams {
             weight_target: 0.0,
             border_margin_m: 1.0,
             rejected_radius_m: 1.5,
+            clearance_m: 0.45,
         }
     }
 }
@@ -160,6 +164,9 @@ impl CandidateScan {
         {
             return None;
         }
+        if obstacle_near(trav, n.ix, n.iy, n.ground_z, self.p.clearance_m) {
+            return None;
+        }
         let unexplored_m2 = unexplored_near(trav, n.ix, n.iy, self.p.unexplored_radius_m);
         let mut score = self.p.weight_distance * d - self.p.weight_unexplored * unexplored_m2;
         if let Some(t) = self.target {
@@ -172,6 +179,27 @@ impl CandidateScan {
             unexplored_m2,
         })
     }
+}
+
+/// Whether an obstacle patch near height `z` lies within `radius_m`.
+fn obstacle_near(trav: &TravMap, ix: i32, iy: i32, z: f32, radius_m: f64) -> bool {
+    let r = (radius_m / trav.resolution()).round() as i32;
+    for dy in -r..=r {
+        for dx in -r..=r {
+            if dx * dx + dy * dy > r * r {
+                continue;
+            }
+            let hit = trav.nodes_in_cell(ix + dx, iy + dy).any(|j| {
+                trav.node(j).is_some_and(|m| {
+                    m.class == TravClass::Obstacle && (m.ground_z - z).abs() < 0.5
+                })
+            });
+            if hit {
+                return true;
+            }
+        }
+    }
+    false
 }
 
 /// Area within `radius_m` of cell (ix, iy) where the graph has no patch,

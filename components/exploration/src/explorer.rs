@@ -93,6 +93,18 @@ impl Explorer {
         &self.p
     }
 
+    /// Start over from `home` (the first pose known on board), keeping the
+    /// storage taken at construction. Coverage stays centred where it was.
+    pub fn restart(&mut self, home: [f64; 3]) {
+        self.home = home;
+        self.trail.clear();
+        self.trail.record(home);
+        self.rejected.clear();
+        self.rejected_flat.clear();
+        self.mode = Mode::Exploring;
+        self.empty_queries = 0;
+    }
+
     pub fn mode(&self) -> Mode {
         self.mode
     }

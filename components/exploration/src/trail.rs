@@ -20,6 +20,11 @@ impl Trail {
         }
     }
 
+    /// Forget the track (the spacing set at construction stays).
+    pub fn clear(&mut self) {
+        self.points.clear();
+    }
+
     pub fn points(&self) -> &[[f64; 3]] {
         &self.points
     }

@@ -1,27 +1,107 @@
-//! Follows the configured path with pure pursuit and commands wheel speeds.
-//! The rover's pose is the SLAM estimate (the odometry pose corrected by the
-//! pose graph; the odometry pose itself while SLAM is off), so the path stays
-//! tied to the walls while the odometry drifts.
+//! Follows a path with pure pursuit and commands wheel speeds, ramped
+//! within the acceleration limits. The rover's pose is the SLAM estimate
+//! (the odometry pose corrected by the pose graph; the odometry pose
+//! itself while SLAM is off), so the path stays tied to the walls while
+//! the odometry drifts.
+//!
+//! The path is the configured one, or, when following plans (exploration),
+//! each plan the planner marks to be driven. On plans the safety monitor
+//! checks every command against the serving MLS map, the tilt and the
+//! progress, and ends the traverse with a stop when it must; the
+//! exploration then replans on fresh maps.
 
-use speleo_control::{PurePursuit, SkidSteer};
+use speleo_control::safety::MonitorInput;
+use speleo_control::{
+    AccelLimiter, GroundProbe, Path, Probe, PurePursuit, SafetyMonitor, SkidSteer, StopReason,
+};
+use speleo_mapping::mls::{MlsMap, PatchKind};
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::{Bus, WheelCommand};
 
+/// What the task did on plans.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ControlCounters {
+    pub plans_followed: u64,
+    /// Plans followed to their end.
+    pub plans_completed: u64,
+    /// Safety stops by [`StopReason`] code - 1.
+    pub stops: [u64; 5],
+}
+
 pub struct ControlTask {
     follower: PurePursuit,
     skid: SkidSteer,
+    limiter: AccelLimiter,
+    monitor: SafetyMonitor,
+    /// Drive the plans marked to be driven instead of the configured path.
+    follow_plans: bool,
+    /// The plan being followed (0: none yet).
+    following: u64,
+    stop: u8,
+    last_run_ns: Option<u64>,
     /// Reduced mode: half speed.
     degraded: bool,
+    pub counters: ControlCounters,
 }
 
 impl ControlTask {
-    pub fn new(follower: PurePursuit, skid: SkidSteer) -> Self {
+    pub fn new(
+        follower: PurePursuit,
+        skid: SkidSteer,
+        limiter: AccelLimiter,
+        monitor: SafetyMonitor,
+    ) -> Self {
         ControlTask {
             follower,
             skid,
+            limiter,
+            monitor,
+            follow_plans: false,
+            following: 0,
+            stop: 0,
+            last_run_ns: None,
             degraded: false,
+            counters: ControlCounters::default(),
         }
+    }
+
+    /// Follow the planner's plans (exploration) instead of the configured path.
+    pub fn following_plans(mut self) -> Self {
+        self.follow_plans = true;
+        self.follower.abandon();
+        self
+    }
+
+    /// Take a new plan to drive, if the planner has marked one.
+    fn take_plan(&mut self, bus: &Bus) {
+        let Some(plan) = bus.plan.get().map(|p| &p.value) else {
+            return;
+        };
+        if !plan.execute || plan.query <= self.following {
+            return;
+        }
+        self.following = plan.query;
+        self.stop = 0;
+        self.monitor.reset();
+        self.counters.plans_followed += 1;
+        let mut path = Path::new();
+        for p in &plan.poses {
+            let q = [p[0] as f64, p[1] as f64];
+            if path.last().is_some_and(|l| l == &q) {
+                continue;
+            }
+            if path.push(q).is_err() {
+                break;
+            }
+        }
+        if path.len() < 2 {
+            // Already there.
+            self.follower.abandon();
+            self.counters.plans_completed += 1;
+            return;
+        }
+        self.follower.set_path(path, false);
     }
 }
 
@@ -31,27 +111,96 @@ pub fn yaw_of(q: [f64; 4]) -> f64 {
     (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
 }
 
+/// Angle between the body's up axis and the vertical, deg.
+pub fn tilt_deg_of(q: [f64; 4]) -> f64 {
+    let [_, x, y, _] = q;
+    (1.0 - 2.0 * (x * x + y * y)).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// The MLS map as the safety monitor probes it.
+pub struct MlsProbe<'a>(pub &'a MlsMap);
+
+/// Height band over the ground that the body sweeps, m.
+const BODY_BAND_M: (f32, f32) = (0.25, 0.7);
+
+impl GroundProbe for MlsProbe<'_> {
+    fn probe(&self, x: f64, y: f64, z: f64, tol_m: f64) -> Probe {
+        let (ix, iy) = self.0.cell_of(x, y);
+        let cell = self.0.cell(ix, iy);
+        let ground = cell
+            .iter()
+            .filter(|p| p.kind == PatchKind::Horizontal && (p.mean as f64 - z).abs() <= tol_m)
+            .min_by(|a, b| (a.mean as f64 - z).abs().total_cmp(&(b.mean as f64 - z).abs()));
+        let Some(g) = ground else {
+            return Probe::NoGround;
+        };
+        let (lo, hi) = (g.mean + BODY_BAND_M.0, g.mean + BODY_BAND_M.1);
+        if cell.iter().any(|p| p.max >= lo && p.min <= hi) {
+            Probe::Blocked
+        } else {
+            Probe::Ground
+        }
+    }
+}
+
 impl Task<Bus> for ControlTask {
     fn run(&mut self, bus: &mut Bus, cx: &Context) {
         let Some(pose) = bus.slam.get() else {
             return;
         };
         let p = pose.value;
-        let mut t = self
-            .follower
-            .command(p.position[0], p.position[1], yaw_of(p.orientation));
+        if self.follow_plans {
+            self.take_plan(bus);
+        }
+        let dt = self
+            .last_run_ns
+            .map_or(0.02, |t| (cx.time_ns.saturating_sub(t)) as f64 * 1e-9)
+            .min(0.1);
+        self.last_run_ns = Some(cx.time_ns);
+        let [x, y, _] = p.position;
+        let yaw = yaw_of(p.orientation);
+        let was_done = self.follower.done();
+        let mut t = self.follower.command(x, y, yaw);
         if self.degraded {
             t.v *= 0.5;
             t.w *= 0.5;
         }
+        if self.follow_plans && self.following != 0 && !was_done {
+            if self.follower.done() {
+                self.counters.plans_completed += 1;
+            } else {
+                let input = MonitorInput {
+                    t_s: cx.time_ns as f64 * 1e-9,
+                    position: p.position,
+                    yaw,
+                    tilt_deg: tilt_deg_of(p.orientation),
+                    v: t.v,
+                    w: t.w,
+                    remaining_m: self.follower.remaining_m(x, y),
+                    cross_track_m: self.follower.cross_track_m(x, y),
+                };
+                if let Some(r) = self.monitor.check(&input, &MlsProbe(bus.surface.serving())) {
+                    self.stop = r as u8;
+                    self.counters.stops[r as usize - 1] += 1;
+                    self.follower.abandon();
+                    // A safety stop does not ramp.
+                    self.limiter.halt();
+                    t.v = 0.0;
+                    t.w = 0.0;
+                }
+            }
+        }
+        let (v, w) = self.limiter.step(t.v, t.w, dt);
         bus.command.publish(
             cx.time_ns,
             WheelCommand {
-                speed: t.v,
-                yaw_rate: t.w,
-                wheel_speeds: self.skid.wheel_speeds(t.v, t.w),
+                speed: v,
+                yaw_rate: w,
+                wheel_speeds: self.skid.wheel_speeds(v, w),
                 segment: self.follower.segment() as u32,
                 done: self.follower.done(),
+                plan: self.following,
+                stop: self.stop,
             },
         );
     }
@@ -62,5 +211,14 @@ impl Task<Bus> for ControlTask {
 
     fn retract(&mut self, bus: &mut Bus) {
         bus.command.retract();
+    }
+}
+
+impl ControlTask {
+    /// Safety stops by reason.
+    pub fn stops(&self) -> impl Iterator<Item = (StopReason, u64)> + '_ {
+        StopReason::ALL
+            .into_iter()
+            .map(|r| (r, self.counters.stops[r as usize - 1]))
     }
 }

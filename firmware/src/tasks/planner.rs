@@ -8,6 +8,11 @@
 //! quantum, so the same inputs give the same plans at the same frames on
 //! any machine.
 //!
+//! With exploration on, the goals are the exploration's instead
+//! (`tasks::exploration`): a query begins when the last traverse is over,
+//! scans the graph for candidates after picking the start, and plans to
+//! them in turn until one has a path; that plan is marked to be driven.
+//!
 //! Every buffer (graph, lattice, search, plan) is taken at start-up for
 //! `planner.max_nodes` nodes and the window's cells: nothing is allocated
 //! while planning.
@@ -19,7 +24,10 @@ use speleo_planner::surface::{SurfaceLattice, SOLID_PER_CELL};
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
+use speleo_exploration::Mode;
+
 use crate::bus::{Bus, PlanMsg};
+use crate::tasks::exploration::Exploration;
 use crate::config::PlannerConfig;
 use crate::tasks::control::yaw_of;
 
@@ -42,6 +50,14 @@ const GOAL_POINTS: usize = 32;
 /// nodes scanned for the start and the goal.
 const GROW_PER_UNIT: usize = 2;
 const PICK_PER_UNIT: usize = 128;
+/// Candidates scored per unit (each looks at ~80 cells around it).
+const SCAN_PER_UNIT: usize = 8;
+/// Exploring, the rover waits for its plan: a goal without a path after
+/// this many expansions is given up for the next candidate, and a plan
+/// not proven optimal this many expansions after the first is driven as it
+/// is (its bound is in the plan).
+const EXPLORE_GOAL_EXPANSIONS: u64 = 40_000;
+const EXPLORE_IMPROVE_EXPANSIONS: u64 = 20_000;
 
 /// What the task has done.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -81,6 +97,8 @@ enum Phase {
     Pick {
         next: usize,
     },
+    /// Scanning the graph for exploration candidates.
+    Candidates,
     Prepare,
     Search,
 }
@@ -100,9 +118,16 @@ struct Query {
     start: Option<(u32, f64)>,
     goal: [Option<(u32, f64)>; GOAL_POINTS],
     start_state: u32,
+    /// Goal nodes to try in turn and their positions, and the one tried.
+    order: [(u32, [f64; 3]); GOAL_POINTS],
+    order_len: usize,
+    tried: usize,
     solved: bool,
-    /// Proven bound of the last plan, thousandths.
+    /// Proven bound of the last plan, thousandths, and its cost.
     eps_milli: u32,
+    cost: u32,
+    /// Expansions when the first plan was found.
+    solved_at: u64,
 }
 
 pub struct PlannerTask {
@@ -113,6 +138,8 @@ pub struct PlannerTask {
     params: AraParams,
     route: Vec<[f64; 2]>,
     looped: bool,
+    /// Exploration's goals instead of the route's.
+    explore: Option<Box<Exploration>>,
     window_half_m: f64,
     goal_ahead_m: f64,
     replan_ns: u64,
@@ -164,6 +191,7 @@ impl PlannerTask {
             },
             route: route.to_vec(),
             looped,
+            explore: None,
             window_half_m: cfg.window_m / 2.0,
             goal_ahead_m: cfg.goal_ahead_m,
             replan_ns: (cfg.replan_every_s * 1e9) as u64,
@@ -181,6 +209,16 @@ impl PlannerTask {
         })
     }
 
+    /// Take the exploration's goals instead of the route's.
+    pub fn with_exploration(mut self, e: Exploration) -> Self {
+        self.explore = Some(Box::new(e));
+        self
+    }
+
+    pub fn exploration(&self) -> Option<&Exploration> {
+        self.explore.as_deref()
+    }
+
     /// The search's and the lattice's fixed storage, approximately.
     pub fn memory_bytes(&self, max_nodes: usize) -> usize {
         // Per state: query mark, g, parent, two round marks, heap position
@@ -194,12 +232,21 @@ impl PlannerTask {
 
     /// Begin a query if one is due and possible.
     fn begin_query(&mut self, bus: &mut Bus, now: u64) -> bool {
-        if now < self.next_query_ns || self.route.len() < 2 {
-            return false;
-        }
         let Some(pose) = bus.slam.get().map(|p| p.value) else {
             return false;
         };
+        match &mut self.explore {
+            Some(ex) => {
+                if !ex.ready(bus, now) {
+                    return false;
+                }
+            }
+            None => {
+                if now < self.next_query_ns || self.route.len() < 2 {
+                    return false;
+                }
+            }
+        }
         let mls = bus.surface.serving();
         if mls.stats().cells == 0 {
             return false;
@@ -213,8 +260,25 @@ impl PlannerTask {
             yaw: yaw_of(pose.orientation),
             ..Query::default()
         };
+        if let Some(ex) = &self.explore {
+            // Exploring: candidates come after the graph is grown.
+            if matches!(ex.mode(), Mode::Returning(_)) {
+                let q = &mut self.query;
+                ex.explorer.home_goals(
+                    [pose.position[0], pose.position[1]],
+                    self.goal_ahead_m,
+                    GOAL_NEAREST_M,
+                    &mut |g| {
+                        if q.goal_count < GOAL_POINTS {
+                            q.goals[q.goal_count] = ([g[0], g[1]], 0.0);
+                            q.goal_count += 1;
+                        }
+                    },
+                );
+            }
+        }
         let mut ahead = self.goal_ahead_m;
-        while self.query.goal_count < GOAL_POINTS {
+        while self.explore.is_none() && self.query.goal_count < GOAL_POINTS {
             self.query.goals[self.query.goal_count] = point_ahead(
                 &self.route,
                 self.looped,
@@ -293,22 +357,95 @@ impl PlannerTask {
             return Phase::Pick { next: to };
         }
         let angles = self.lat.angles();
-        // The farthest point ahead that the graph reaches.
-        let goal = (0..q.goal_count).find_map(|k| q.goal[k].map(|(g, _)| g));
-        let (Some((s, _)), Some(g)) = (q.start, goal) else {
-            if q.start.is_none() {
-                self.counters.no_start += 1;
-            } else {
-                self.counters.no_goal += 1;
-            }
+        let Some((s, _)) = q.start else {
+            self.counters.no_start += 1;
             self.end_query();
             return Phase::Idle;
         };
         let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, angles);
         q.start_state = self.lat.state(s, bin(q.yaw));
-        // Any heading at the goal: the next query starts from wherever the
-        // rover is by then.
-        if self.lat.begin_any_heading(g).is_err() {
+        if let Some(ex) = &mut self.explore {
+            if ex.mode() == Mode::Exploring {
+                let res = trav.resolution();
+                let window = Window::around(q.rover[0], q.rover[1], self.window_half_m, res);
+                ex.scan
+                    .begin([q.rover[0], q.rover[1]], ex.target, Some(window));
+                return Phase::Candidates;
+            }
+        }
+        // The points found, farthest first; on the route only the farthest
+        // is tried, on the way home each in turn.
+        q.order_len = 0;
+        for k in 0..q.goal_count {
+            let Some((g, _)) = q.goal[k] else { continue };
+            if q.order[..q.order_len].iter().any(|o| o.0 == g) {
+                continue;
+            }
+            let at = trav.node(g).map_or([0.0; 3], |n| trav.position(n));
+            q.order[q.order_len] = (g, at);
+            q.order_len += 1;
+            if self.explore.is_none() {
+                break;
+            }
+        }
+        if q.order_len == 0 {
+            self.counters.no_goal += 1;
+            self.end_query();
+            return Phase::Idle;
+        }
+        self.try_goal(0)
+    }
+
+    /// Scan the graph for exploration candidates; then plan to the best.
+    fn candidates(&mut self, units: usize) -> Phase {
+        let Some(ex) = self.explore.as_deref_mut() else {
+            return Phase::Idle;
+        };
+        let Exploration {
+            explorer,
+            scan,
+            counters,
+            ..
+        } = ex;
+        let done = scan.step(
+            self.lat.trav(),
+            explorer.coverage(),
+            explorer.rejected(),
+            units.saturating_mul(SCAN_PER_UNIT),
+        );
+        if !done {
+            return Phase::Candidates;
+        }
+        let best = scan.best();
+        counters.scans += 1;
+        explorer.query_result(!best.is_empty());
+        if best.is_empty() {
+            counters.scans_empty += 1;
+            self.counters.no_goal += 1;
+            self.end_query();
+            return Phase::Idle;
+        }
+        let q = &mut self.query;
+        q.order_len = best.len().min(GOAL_POINTS);
+        for (o, c) in q.order.iter_mut().zip(best) {
+            *o = (c.node, c.position);
+        }
+        self.try_goal(0)
+    }
+
+    /// Plan to the `k`-th goal in order (any heading at the goal: the next
+    /// query starts from wherever the rover is by then).
+    fn try_goal(&mut self, k: usize) -> Phase {
+        if k >= self.query.order_len {
+            self.counters.no_path += 1;
+            self.end_query();
+            return Phase::Idle;
+        }
+        self.query.tried = k;
+        if let Some(ex) = &mut self.explore {
+            ex.counters.goals_attempted += 1;
+        }
+        if self.lat.begin_any_heading(self.query.order[k].0).is_err() {
             self.counters.lattice_errors += 1;
             self.end_query();
             return Phase::Idle;
@@ -316,8 +453,30 @@ impl PlannerTask {
         Phase::Prepare
     }
 
+    /// No path to the goal tried: the next one, or the query is over.
+    fn goal_failed(&mut self) {
+        let Some(ex) = &mut self.explore else {
+            self.counters.no_path += 1;
+            self.end_query();
+            return;
+        };
+        ex.counters.goals_unreachable += 1;
+        let at = self.query.order[self.query.tried].1;
+        if ex.mode() == Mode::Exploring {
+            ex.explorer.reject([at[0], at[1]]);
+        }
+        self.phase = self.try_goal(self.query.tried + 1);
+    }
+
     /// Publish the best plan so far.
-    fn publish(&mut self, bus: &mut Bus, now: u64, cost: u32, eps_milli: u32, optimal: bool) {
+    fn publish(
+        &mut self,
+        bus: &mut Bus,
+        now: u64,
+        (cost, eps_milli): (u32, u32),
+        optimal: bool,
+        execute: bool,
+    ) {
         self.search.path(&mut self.states);
         let trav = self.lat.trav();
         let bin = std::f64::consts::TAU / self.lat.angles() as f64;
@@ -326,6 +485,7 @@ impl PlannerTask {
             cost_ms: cost,
             eps: eps_milli as f32 / 1000.0,
             optimal,
+            execute,
             poses: heapless::Vec::new(),
         };
         for &s in &self.states {
@@ -342,6 +502,13 @@ impl PlannerTask {
             }
         }
         self.counters.plans_published += 1;
+        if execute {
+            if let Some(ex) = &mut self.explore {
+                ex.executing = msg.query;
+                ex.counters.plans_executed += 1;
+                bus.exploration.goal = Some(self.query.order[self.query.tried].1);
+            }
+        }
         bus.plan.publish(now, msg);
     }
 
@@ -357,19 +524,34 @@ impl PlannerTask {
         self.counters.expansions += stats.expansions - before;
         match progress {
             Progress::Searching => {
-                if stats.expansions >= self.max_expansions {
+                let e = stats.expansions;
+                let give_up = match (&self.explore, self.query.solved) {
+                    (None, _) => e >= self.max_expansions,
+                    (Some(_), false) => e >= EXPLORE_GOAL_EXPANSIONS.min(self.max_expansions),
+                    (Some(_), true) => e >= self.query.solved_at + EXPLORE_IMPROVE_EXPANSIONS,
+                };
+                if give_up {
                     if self.query.solved {
                         self.counters.abandoned += 1;
+                        if self.explore.is_some() {
+                            // The best plan so far is the one to drive.
+                            let best = (self.query.cost, self.query.eps_milli);
+                            self.publish(bus, now, best, false, true);
+                        }
+                        self.end_query();
                     } else {
-                        self.counters.no_path += 1;
+                        self.goal_failed();
                     }
-                    self.end_query();
                 }
             }
             Progress::Solution { eps_milli, cost } => {
                 self.solution(now);
                 self.query.eps_milli = eps_milli;
-                self.publish(bus, now, cost, eps_milli, false);
+                self.query.cost = cost;
+                if self.query.solved_at == 0 {
+                    self.query.solved_at = stats.expansions;
+                }
+                self.publish(bus, now, (cost, eps_milli), false, false);
             }
             Progress::Optimal { cost } => {
                 self.solution(now);
@@ -379,13 +561,11 @@ impl PlannerTask {
                 if self.optimal_ms.len() < HISTORY {
                     self.optimal_ms.push(ms);
                 }
-                self.publish(bus, now, cost, 1000, true);
+                let execute = self.explore.is_some();
+                self.publish(bus, now, (cost, 1000), true, execute);
                 self.end_query();
             }
-            Progress::NoPath | Progress::Idle => {
-                self.counters.no_path += 1;
-                self.end_query();
-            }
+            Progress::NoPath | Progress::Idle => self.goal_failed(),
         }
     }
 
@@ -409,6 +589,9 @@ impl Task<Bus> for PlannerTask {
     /// scanned, lattice preparation units, or expansions.
     fn step(&mut self, bus: &mut Bus, cx: &Context, quantum: u32) -> StepResult {
         let units = quantum.max(1);
+        if let Some(ex) = &mut self.explore {
+            ex.observe(bus, cx.time_ns);
+        }
         match self.phase {
             Phase::Idle => {
                 if !self.begin_query(bus, cx.time_ns) {
@@ -438,6 +621,9 @@ impl Task<Bus> for PlannerTask {
             }
             Phase::Pick { next } => {
                 self.phase = self.pick(next, units as usize);
+            }
+            Phase::Candidates => {
+                self.phase = self.candidates(units as usize);
             }
             Phase::Prepare => {
                 if self.lat.prepare(bus.surface.serving(), units as usize) {

@@ -173,6 +173,15 @@ impl SimHardware {
         self.motion.state(self.t_ns)
     }
 
+    /// Times the chassis has struck the world (walls, ceiling, a boulder's
+    /// side); always 0 for the kinematic rover.
+    pub fn collisions(&self) -> u64 {
+        match &self.motion {
+            Motion::Kinematic(_) => 0,
+            Motion::Physics(r) => r.collisions,
+        }
+    }
+
     /// A handle that follows the true pose after every `advance_to`.
     pub fn truth_probe(&self) -> TruthProbe {
         self.truth.clone()

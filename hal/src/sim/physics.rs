@@ -155,6 +155,12 @@ pub struct PhysicsRover {
     state: BodyState,
     /// Non-finite states rapier quarantined (the rover would vanish).
     pub quarantined: u64,
+    chassis_collider: ColliderHandle,
+    /// The chassis touches the world other than from above the ground.
+    in_collision: bool,
+    /// Times the chassis struck a wall, the ceiling or a boulder's side
+    /// (each touch counts once, however long it lasts).
+    pub collisions: u64,
 }
 
 fn v3(a: [f64; 3]) -> Vector {
@@ -188,7 +194,7 @@ impl PhysicsRover {
                 .pose(Pose::from_parts(v3(base), rot(&orientation)))
                 .can_sleep(false),
         );
-        world.insert_collider(
+        let chassis_collider = world.insert_collider(
             ColliderBuilder::cuboid(0.5 * l as f32, 0.5 * w as f32, 0.5 * h as f32)
                 .mass(p.chassis_mass_kg as f32)
                 .friction(0.5),
@@ -233,6 +239,9 @@ impl PhysicsRover {
             profile_angle: [0.0; WHEELS],
             state: BodyState::default(),
             quarantined: 0,
+            chassis_collider,
+            in_collision: false,
+            collisions: 0,
         };
         rover.state = rover.read_state(0, None, dt_s);
         Ok(rover)
@@ -275,6 +284,32 @@ impl PhysicsRover {
             self.quarantined += 1;
         }
         self.state = self.read_state(t_ns, Some(&before), dt);
+        let hit = self.chassis_hits_world();
+        if hit && !self.in_collision {
+            self.collisions += 1;
+        }
+        self.in_collision = hit;
+    }
+
+    /// Whether the chassis touches the world anywhere but its underside on
+    /// the ground (bottoming out on a rock is a scrape, not a collision).
+    fn chassis_hits_world(&self) -> bool {
+        let c = self.chassis_collider;
+        self.world.narrow_phase.contact_pairs_with(c).any(|pair| {
+            if !pair.has_any_active_contact() {
+                return false;
+            }
+            pair.manifolds().iter().any(|m| {
+                if m.data.num_active_contacts() == 0 {
+                    return false;
+                }
+                // The normal points from collider1 to collider2; turn it to
+                // point from the world into the chassis.
+                let n = m.data.normal;
+                let up = if pair.collider1 == c { -n.z } else { n.z };
+                up < 0.7
+            })
+        })
     }
 
     fn read_state(&self, t_ns: u64, before: Option<&BodyState>, dt: f64) -> BodyState {

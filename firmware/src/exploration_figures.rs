@@ -1,0 +1,137 @@
+//! The report's `exploration` section: what the exploration did, the area
+//! it mapped, and, in simulation, how much of the world's reachable floor
+//! that is, how far from its start the rover ended, how far it drove and
+//! how often its chassis struck the world (ground truth).
+
+use std::collections::{BTreeMap, HashMap};
+
+use serde::Serialize;
+use speleo_control::StopReason;
+use speleo_mapping::mls::MlsMap;
+use speleo_traversability::{TravMap, TravParams};
+
+use crate::tasks::control::ControlCounters;
+use crate::tasks::exploration::Exploration;
+
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ExplorationFigures {
+    /// `exploring`, `returning` or `finished`, and why the return began
+    /// (`explored`: nothing reachable was left; `time_limit`).
+    pub state: String,
+    pub return_reason: Option<String>,
+    pub returned_home: bool,
+    /// Drivable ground of the final map reachable from home, m^2.
+    pub explored_area_m2: f64,
+    /// Simulation only: the world's floor reachable from the start (its
+    /// traversability graph on the world's own surface), the fraction of
+    /// it that the explored area covers, the end's distance from the
+    /// start, the distance driven and the chassis' strikes.
+    pub reachable_floor_m2: Option<f64>,
+    pub coverage_fraction: Option<f64>,
+    pub home_error_m: Option<f64>,
+    pub distance_m: Option<f64>,
+    pub collisions: Option<u64>,
+    /// Goals planned to (candidates and points on the way home), those
+    /// with no path, and plans driven.
+    pub goals_attempted: u64,
+    pub goals_unreachable: u64,
+    pub plans_executed: u64,
+    pub plans_completed: u64,
+    /// Candidate scans, and those that found nothing.
+    pub scans: u64,
+    pub scans_empty: u64,
+    pub safety_stops: BTreeMap<String, u64>,
+    /// Area within the coverage radius of the rover's track, m^2.
+    pub covered_area_m2: f64,
+}
+
+/// The on-board figures.
+pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
+    use speleo_exploration::{Mode, ReturnReason};
+    let reason = |r: ReturnReason| match r {
+        ReturnReason::Explored => "explored".to_string(),
+        ReturnReason::TimeLimit => "time_limit".to_string(),
+    };
+    let (state, return_reason) = match e.mode() {
+        Mode::Exploring => ("exploring", None),
+        Mode::Returning(r) => ("returning", Some(reason(r))),
+        Mode::Finished(r) => ("finished", Some(reason(r))),
+    };
+    ExplorationFigures {
+        state: state.into(),
+        return_reason,
+        returned_home: matches!(e.mode(), Mode::Finished(_)),
+        goals_attempted: e.counters.goals_attempted,
+        goals_unreachable: e.counters.goals_unreachable,
+        plans_executed: e.counters.plans_executed,
+        plans_completed: c.plans_completed,
+        scans: e.counters.scans,
+        scans_empty: e.counters.scans_empty,
+        safety_stops: StopReason::ALL
+            .into_iter()
+            .map(|r| (r.name().to_string(), c.stops[r as usize - 1]))
+            .collect(),
+        covered_area_m2: e.explorer.coverage().area_m2(),
+        ..Default::default()
+    }
+}
+
+/// The traversability graph over `mls` from the ground under `at`, with
+/// room for any map a mission makes; `None` when there is no ground there.
+pub fn reachable(mls: &MlsMap, at: [f64; 3], params: &TravParams) -> Option<TravMap> {
+    let mut t = TravMap::new(TravParams {
+        max_nodes: 1 << 22,
+        ..params.clone()
+    })
+    .ok()?;
+    t.build(mls, at).ok()?;
+    Some(t)
+}
+
+/// Drivable area of a graph, m^2.
+pub fn drivable_area_m2(t: &TravMap) -> f64 {
+    let res = t.resolution();
+    t.nodes().iter().filter(|n| n.class.is_drivable()).count() as f64 * res * res
+}
+
+/// How much of `truth`'s drivable ground lies within `near_m` (in x and y,
+/// and half a metre in height) of `explored`'s, whose positions go to the
+/// world frame through `to_world`.
+pub fn coverage_fraction(
+    truth: &TravMap,
+    explored: &TravMap,
+    to_world: impl Fn([f64; 3]) -> [f64; 3],
+    near_m: f64,
+) -> f64 {
+    let res = truth.resolution();
+    let cell = |v: f64| (v / res).floor() as i32;
+    let r = (near_m / res).round() as i32;
+    let mut seen: HashMap<(i32, i32), Vec<f32>> = HashMap::new();
+    for n in explored.nodes().iter().filter(|n| n.class.is_drivable()) {
+        let p = to_world(explored.position(n));
+        let (ix, iy) = (cell(p[0]), cell(p[1]));
+        for dy in -r..=r {
+            for dx in -r..=r {
+                seen.entry((ix + dx, iy + dy))
+                    .or_default()
+                    .push(p[2] as f32);
+            }
+        }
+    }
+    let drivable: Vec<_> = truth
+        .nodes()
+        .iter()
+        .filter(|n| n.class.is_drivable())
+        .collect();
+    if drivable.is_empty() {
+        return 0.0;
+    }
+    let covered = drivable
+        .iter()
+        .filter(|n| {
+            seen.get(&(n.ix, n.iy))
+                .is_some_and(|zs| zs.iter().any(|z| (z - n.ground_z).abs() < 0.5))
+        })
+        .count();
+    covered as f64 / drivable.len() as f64
+}
