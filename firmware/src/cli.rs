@@ -90,7 +90,7 @@ pub struct PlanArgs {
         conflicts_with = "world"
     )]
     pub sbpl_env: Option<PathBuf>,
-    /// Or a world (lava-tube, garage, flat, or a mesh file): the maps are
+    /// Or a world (lava-tube, short-tube, garage, boulders, flat, or a mesh file): the maps are
     /// built from its ground-truth surface.
     #[arg(long, value_name = "NAME|MESH", requires_all = ["start", "goal"])]
     pub world: Option<String>,
@@ -201,7 +201,7 @@ pub enum WorldCommand {
 
 #[derive(Args, Debug)]
 pub struct WorldWaypointsArgs {
-    /// lava-tube, garage, flat, or a .ply/.obj/.stl file.
+    /// lava-tube, short-tube, garage, boulders, flat, or a .ply/.obj/.stl file.
     #[arg(value_name = "NAME|MESH")]
     pub world: String,
     #[arg(long, default_value_t = 1)]
@@ -210,7 +210,7 @@ pub struct WorldWaypointsArgs {
 
 #[derive(Args, Debug)]
 pub struct WorldExportArgs {
-    /// lava-tube, garage, flat, or a .ply/.obj/.stl file.
+    /// lava-tube, short-tube, garage, boulders, flat, or a .ply/.obj/.stl file.
     #[arg(value_name = "NAME|MESH")]
     pub world: String,
     #[arg(value_name = "OUT.ply")]
@@ -301,7 +301,7 @@ pub struct Outputs {
 
 #[derive(Args, Debug)]
 pub struct SimArgs {
-    /// World to simulate: lava-tube, garage, flat, or a PLY/OBJ/STL mesh.
+    /// World to simulate: lava-tube, short-tube, garage, boulders, flat, or a PLY/OBJ/STL mesh.
     #[arg(long, value_name = "NAME|MESH")]
     pub world: Option<String>,
     /// Seed of every random source of the simulation [default: from config, 1].

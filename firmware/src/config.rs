@@ -545,7 +545,7 @@ impl Config {
         if s.world.is_empty() {
             return Err(ConfigError::Invalid {
                 key: "sim.world".into(),
-                why: "name a world (lava-tube, garage, flat) or a .ply/.obj/.stl file".into(),
+                why: "name a world (lava-tube, short-tube, garage, boulders, flat) or a .ply/.obj/.stl file".into(),
             });
         }
         if !["physics", "kinematic"].contains(&s.rover_model.as_str()) {
@@ -694,10 +694,28 @@ impl Config {
         for (key, v, lo, hi, text) in [
             ("control.max_accel", c.max_accel, 0.01, 20.0, "0.01..=20"),
             ("control.max_decel", c.max_decel, 0.01, 20.0, "0.01..=20"),
-            ("control.max_yaw_accel", c.max_yaw_accel, 0.01, 50.0, "0.01..=50"),
+            (
+                "control.max_yaw_accel",
+                c.max_yaw_accel,
+                0.01,
+                50.0,
+                "0.01..=50",
+            ),
             ("control.max_tilt_deg", c.max_tilt_deg, 1.0, 90.0, "1..=90"),
-            ("control.stuck_after_s", c.stuck_after_s, 0.1, 600.0, "0.1..=600"),
-            ("control.max_cross_track_m", c.max_cross_track_m, 0.05, 50.0, "0.05..=50"),
+            (
+                "control.stuck_after_s",
+                c.stuck_after_s,
+                0.1,
+                600.0,
+                "0.1..=600",
+            ),
+            (
+                "control.max_cross_track_m",
+                c.max_cross_track_m,
+                0.05,
+                50.0,
+                "0.05..=50",
+            ),
         ] {
             range(key, v, lo, hi, text)?;
         }

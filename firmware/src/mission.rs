@@ -176,8 +176,15 @@ fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, Mission
         };
         (idle, &[][..])
     };
-    planner::PlannerTask::new(&pc, &prims, res, route, cfg.control.looped, base_height_m(cfg))
-        .map_err(MissionError::Planner)
+    planner::PlannerTask::new(
+        &pc,
+        &prims,
+        res,
+        route,
+        cfg.control.looped,
+        base_height_m(cfg),
+    )
+    .map_err(MissionError::Planner)
 }
 
 /// Height of base_link over the ground: it is at the wheel hubs, which the
@@ -370,7 +377,9 @@ pub fn run<C: FrameClock>(
     loop {
         // An exploration that is home ends the mission.
         let finished = bus.exploration.phase == crate::bus::ExplorationPhase::Finished;
-        if total.is_some_and(|n| exec.frames_run() >= n) || m.stop.load(Ordering::Relaxed) || finished
+        if total.is_some_and(|n| exec.frames_run() >= n)
+            || m.stop.load(Ordering::Relaxed)
+            || finished
         {
             break;
         }
@@ -509,7 +518,8 @@ pub fn run<C: FrameClock>(
                     .sum(),
             );
             if let (Some(a), Some(b)) = (s.first(), s.last()) {
-                f.home_error_m = Some(((a.1[0] - b.1[0]).powi(2) + (a.1[1] - b.1[1]).powi(2)).sqrt());
+                f.home_error_m =
+                    Some(((a.1[0] - b.1[0]).powi(2) + (a.1[1] - b.1[1]).powi(2)).sqrt());
             }
         }
         f

@@ -218,7 +218,8 @@ fn print_summary(r: &MissionResult) {
         );
     }
     if let Some(e) = &r.exploration {
-        let opt = |v: Option<f64>, unit: &str| v.map_or("-".to_string(), |v| format!("{v:.2}{unit}"));
+        let opt =
+            |v: Option<f64>, unit: &str| v.map_or("-".to_string(), |v| format!("{v:.2}{unit}"));
         eprintln!(
             "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {} collisions",
             e.state,

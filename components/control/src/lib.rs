@@ -7,9 +7,11 @@
 //! accelerations; [`safety`] stops the rover before it leaves the map,
 //! tips or digs in.
 
+pub mod legs;
 pub mod limits;
 pub mod safety;
 
+pub use legs::{split_legs, Leg, MAX_LEGS};
 pub use limits::{AccelLimiter, AccelLimits};
 pub use safety::{GroundProbe, Probe, SafetyMonitor, SafetyParams, StopReason};
 

@@ -34,7 +34,7 @@ pub enum StopReason {
     LeavingMap = 1,
     /// Something at body height just ahead.
     Blocked = 2,
-    /// Roll or pitch beyond the limit.
+    /// Roll or pitch beyond the limit, and growing.
     Tilt = 3,
     /// Commanded to move without moving.
     Stuck = 4,
@@ -137,11 +137,22 @@ pub struct SafetyMonitor {
     /// Where and when the current stretch of commanded motion was last
     /// seen to make progress.
     anchor: Option<(f64, [f64; 2], f64)>,
+    /// The tilt at the first check since the last reset.
+    start_tilt_deg: Option<f64>,
 }
+
+/// A rover already tilted beyond the limit (stopped there) may move as
+/// long as the tilt does not grow by more than this, deg: it can only get
+/// off the slope by moving.
+const TILT_GROWTH_DEG: f64 = 2.0;
 
 impl SafetyMonitor {
     pub fn new(p: SafetyParams) -> Self {
-        SafetyMonitor { p, anchor: None }
+        SafetyMonitor {
+            p,
+            anchor: None,
+            start_tilt_deg: None,
+        }
     }
 
     pub fn params(&self) -> &SafetyParams {
@@ -151,11 +162,13 @@ impl SafetyMonitor {
     /// Forget the motion history (a new plan).
     pub fn reset(&mut self) {
         self.anchor = None;
+        self.start_tilt_deg = None;
     }
 
     /// Whether the command must not be sent, and why.
     pub fn check(&mut self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
-        if s.tilt_deg > self.p.max_tilt_deg {
+        let start = *self.start_tilt_deg.get_or_insert(s.tilt_deg);
+        if s.tilt_deg > self.p.max_tilt_deg.max(start + TILT_GROWTH_DEG) {
             return Some(StopReason::Tilt);
         }
         if self.stuck(s) {
@@ -203,10 +216,7 @@ impl SafetyMonitor {
         for k in 0..=steps {
             let d = k as f64 * self.p.probe_step_m;
             let r = self.p.front_m + d;
-            let (x, y) = (
-                s.position[0] + dir * r * cs,
-                s.position[1] + dir * r * sn,
-            );
+            let (x, y) = (s.position[0] + dir * r * cs, s.position[1] + dir * r * sn);
             match map.probe(x, y, ground, self.p.max_step_m + r * slope) {
                 Probe::Ground => gap = 0.0,
                 Probe::NoGround => {
@@ -303,7 +313,10 @@ mod tests {
         }
         let mut m = SafetyMonitor::new(SafetyParams::default());
         for k in 0..100 {
-            assert_eq!(m.check(&input(k as f64 * 0.03, k as f64 * 0.1), &Gappy), None);
+            assert_eq!(
+                m.check(&input(k as f64 * 0.03, k as f64 * 0.1), &Gappy),
+                None
+            );
         }
         // The path ends short of the edge: nothing beyond it is probed.
         let map = Ledge {
@@ -323,8 +336,17 @@ mod tests {
         };
         let mut m = SafetyMonitor::new(SafetyParams::default());
         let mut s = input(0.0, 0.0);
+        assert_eq!(m.check(&s, &flat), None);
         s.tilt_deg = 35.0;
         assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
+        // Stopped on a slope, the rover may drive off it, not up it.
+        m.reset();
+        assert_eq!(m.check(&s, &flat), None);
+        s.tilt_deg = 33.0;
+        assert_eq!(m.check(&s, &flat), None);
+        s.tilt_deg = 37.5;
+        assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
+        m.reset();
         let mut s = input(0.0, 0.0);
         s.cross_track_m = 1.0;
         assert_eq!(m.check(&s, &flat), Some(StopReason::OffPath));

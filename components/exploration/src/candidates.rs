@@ -190,9 +190,8 @@ fn obstacle_near(trav: &TravMap, ix: i32, iy: i32, z: f32, radius_m: f64) -> boo
                 continue;
             }
             let hit = trav.nodes_in_cell(ix + dx, iy + dy).any(|j| {
-                trav.node(j).is_some_and(|m| {
-                    m.class == TravClass::Obstacle && (m.ground_z - z).abs() < 0.5
-                })
+                trav.node(j)
+                    .is_some_and(|m| m.class == TravClass::Obstacle && (m.ground_z - z).abs() < 0.5)
             });
             if hit {
                 return true;

@@ -78,7 +78,11 @@ impl Explorer {
         let mut trail = Trail::new(p.trail_points, p.trail_spacing_m);
         trail.record(home);
         Explorer {
-            coverage: CoverageMap::new([home[0], home[1]], p.coverage_extent_m, p.coverage_resolution_m),
+            coverage: CoverageMap::new(
+                [home[0], home[1]],
+                p.coverage_extent_m,
+                p.coverage_resolution_m,
+            ),
             trail,
             rejected: heapless::Deque::new(),
             rejected_flat: heapless::Vec::new(),

@@ -54,13 +54,16 @@ impl Trail {
     /// is that near).
     pub fn earliest_near(&self, at: [f64; 2], reach_m: f64) -> Option<usize> {
         let d = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
-        self.points.iter().position(|p| d(p) <= reach_m).or_else(|| {
-            (0..self.points.len()).min_by(|&a, &b| {
-                d(&self.points[a])
-                    .total_cmp(&d(&self.points[b]))
-                    .then(a.cmp(&b))
+        self.points
+            .iter()
+            .position(|p| d(p) <= reach_m)
+            .or_else(|| {
+                (0..self.points.len()).min_by(|&a, &b| {
+                    d(&self.points[a])
+                        .total_cmp(&d(&self.points[b]))
+                        .then(a.cmp(&b))
+                })
             })
-        })
     }
 
     /// Walking home from point `from`: the point `ahead_m` farther back

@@ -54,7 +54,13 @@ impl ExplorationConfig {
     pub(super) fn validate(&self) -> Result<(), ConfigError> {
         let k = |s: &str| format!("exploration.{s}");
         range(&k("time_limit_s"), self.time_limit_s, 0.0, 1e7, "0..=1e7")?;
-        range(&k("coverage_radius_m"), self.coverage_radius_m, 0.0, 50.0, "0..=50")?;
+        range(
+            &k("coverage_radius_m"),
+            self.coverage_radius_m,
+            0.0,
+            50.0,
+            "0..=50",
+        )?;
         range(
             &k("empty_queries_to_return"),
             self.empty_queries_to_return,
@@ -63,11 +69,38 @@ impl ExplorationConfig {
             "1..=1000",
         )?;
         range(&k("settle_s"), self.settle_s, 0.0, 60.0, "0..=60")?;
-        range(&k("min_goal_distance_m"), self.min_goal_distance_m, 0.0, 100.0, "0..=100")?;
-        range(&k("weight_unexplored"), self.weight_unexplored, 0.0, 1e3, "0..=1000")?;
-        range(&k("weight_target"), self.weight_target, 0.0, 1e3, "0..=1000")?;
-        range(&k("home_tolerance_m"), self.home_tolerance_m, 0.05, 10.0, "0.05..=10")?;
-        if self.target.is_some_and(|t| t.iter().any(|v| !v.is_finite())) {
+        range(
+            &k("min_goal_distance_m"),
+            self.min_goal_distance_m,
+            0.0,
+            100.0,
+            "0..=100",
+        )?;
+        range(
+            &k("weight_unexplored"),
+            self.weight_unexplored,
+            0.0,
+            1e3,
+            "0..=1000",
+        )?;
+        range(
+            &k("weight_target"),
+            self.weight_target,
+            0.0,
+            1e3,
+            "0..=1000",
+        )?;
+        range(
+            &k("home_tolerance_m"),
+            self.home_tolerance_m,
+            0.05,
+            10.0,
+            "0.05..=10",
+        )?;
+        if self
+            .target
+            .is_some_and(|t| t.iter().any(|v| !v.is_finite()))
+        {
             return Err(ConfigError::Invalid {
                 key: k("target"),
                 why: "must be finite numbers".into(),

@@ -12,12 +12,13 @@
 
 use speleo_control::safety::MonitorInput;
 use speleo_control::{
-    AccelLimiter, GroundProbe, Path, Probe, PurePursuit, SafetyMonitor, SkidSteer, StopReason,
+    split_legs, AccelLimiter, GroundProbe, Leg, Path, Probe, PurePursuit, SafetyMonitor, SkidSteer,
+    StopReason, MAX_LEGS,
 };
 use speleo_mapping::mls::{MlsMap, PatchKind};
 use speleo_scheduler::{Context, Task};
 
-use crate::bus::{Bus, WheelCommand};
+use crate::bus::{Bus, WheelCommand, PLAN_POSES};
 
 /// What the task did on plans.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -36,8 +37,12 @@ pub struct ControlTask {
     monitor: SafetyMonitor,
     /// Drive the plans marked to be driven instead of the configured path.
     follow_plans: bool,
-    /// The plan being followed (0: none yet).
+    /// The plan being followed (0: none yet), its poses (x, y, heading),
+    /// its legs and the leg being driven.
     following: u64,
+    poses: heapless::Vec<[f64; 3], PLAN_POSES>,
+    legs: heapless::Vec<Leg, MAX_LEGS>,
+    leg: usize,
     stop: u8,
     last_run_ns: Option<u64>,
     /// Reduced mode: half speed.
@@ -59,6 +64,9 @@ impl ControlTask {
             monitor,
             follow_plans: false,
             following: 0,
+            poses: heapless::Vec::new(),
+            legs: heapless::Vec::new(),
+            leg: 0,
             stop: 0,
             last_run_ns: None,
             degraded: false,
@@ -85,23 +93,64 @@ impl ControlTask {
         self.stop = 0;
         self.monitor.reset();
         self.counters.plans_followed += 1;
-        let mut path = Path::new();
+        self.poses.clear();
         for p in &plan.poses {
-            let q = [p[0] as f64, p[1] as f64];
-            if path.last().is_some_and(|l| l == &q) {
-                continue;
-            }
-            if path.push(q).is_err() {
+            let _ = self.poses.push([p[0] as f64, p[1] as f64, p[3] as f64]);
+        }
+        split_legs(&self.poses, &mut self.legs);
+        self.leg = 0;
+        if !self.start_leg() {
+            // Already there.
+            self.follower.abandon();
+            self.counters.plans_completed += 1;
+        }
+    }
+
+    /// Follow leg `self.leg`; false when there is none.
+    fn start_leg(&mut self) -> bool {
+        let Some(l) = self.legs.get(self.leg).copied() else {
+            return false;
+        };
+        let mut path = Path::new();
+        for p in &self.poses[l.start..=l.end] {
+            let q = [p[0], p[1]];
+            if path.last() != Some(&q) && path.push(q).is_err() {
                 break;
             }
         }
         if path.len() < 2 {
-            // Already there.
-            self.follower.abandon();
-            self.counters.plans_completed += 1;
-            return;
+            return false;
         }
         self.follower.set_path(path, false);
+        true
+    }
+
+    fn reversing(&self) -> bool {
+        self.follow_plans && self.legs.get(self.leg).is_some_and(|l| l.reverse)
+    }
+
+    /// The command on the current leg; the next leg when this one is done.
+    fn follow(&mut self, x: f64, y: f64, yaw: f64) -> speleo_control::Twist {
+        loop {
+            // Backward: pure pursuit for the rover turned about.
+            let reverse = self.reversing();
+            let heading = if reverse {
+                yaw + std::f64::consts::PI
+            } else {
+                yaw
+            };
+            let mut t = self.follower.command(x, y, heading);
+            if reverse {
+                t.v = -t.v;
+            }
+            if !self.follower.done() || !self.follow_plans || self.leg + 1 >= self.legs.len() {
+                return t;
+            }
+            self.leg += 1;
+            if !self.start_leg() {
+                return t;
+            }
+        }
     }
 }
 
@@ -114,7 +163,10 @@ pub fn yaw_of(q: [f64; 4]) -> f64 {
 /// Angle between the body's up axis and the vertical, deg.
 pub fn tilt_deg_of(q: [f64; 4]) -> f64 {
     let [_, x, y, _] = q;
-    (1.0 - 2.0 * (x * x + y * y)).clamp(-1.0, 1.0).acos().to_degrees()
+    (1.0 - 2.0 * (x * x + y * y))
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees()
 }
 
 /// The MLS map as the safety monitor probes it.
@@ -130,7 +182,11 @@ impl GroundProbe for MlsProbe<'_> {
         let ground = cell
             .iter()
             .filter(|p| p.kind == PatchKind::Horizontal && (p.mean as f64 - z).abs() <= tol_m)
-            .min_by(|a, b| (a.mean as f64 - z).abs().total_cmp(&(b.mean as f64 - z).abs()));
+            .min_by(|a, b| {
+                (a.mean as f64 - z)
+                    .abs()
+                    .total_cmp(&(b.mean as f64 - z).abs())
+            });
         let Some(g) = ground else {
             return Probe::NoGround;
         };
@@ -160,7 +216,7 @@ impl Task<Bus> for ControlTask {
         let [x, y, _] = p.position;
         let yaw = yaw_of(p.orientation);
         let was_done = self.follower.done();
-        let mut t = self.follower.command(x, y, yaw);
+        let mut t = self.follow(x, y, yaw);
         if self.degraded {
             t.v *= 0.5;
             t.w *= 0.5;

@@ -101,6 +101,16 @@ impl Exploration {
             self.idle_since = None;
             return false;
         }
+        if self.idle_since.is_none() {
+            // The traverse is over: a goal the rover was stopped on the way
+            // to is not tried again.
+            let stopped = bus.command.get().is_some_and(|c| c.value.stop != 0);
+            if let (true, Mode::Exploring, Some(g)) =
+                (stopped, self.explorer.mode(), bus.exploration.goal)
+            {
+                self.explorer.reject([g[0], g[1]]);
+            }
+        }
         let since = *self.idle_since.get_or_insert(now);
         if now < since + self.settle_ns {
             return false;

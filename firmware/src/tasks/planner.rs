@@ -27,9 +27,9 @@ use speleo_traversability::{TravMap, Window};
 use speleo_exploration::Mode;
 
 use crate::bus::{Bus, PlanMsg};
-use crate::tasks::exploration::Exploration;
 use crate::config::PlannerConfig;
 use crate::tasks::control::yaw_of;
+use crate::tasks::exploration::Exploration;
 
 /// Results kept for the report's medians (a query every few seconds: days
 /// of mission).

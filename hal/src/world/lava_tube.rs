@@ -56,6 +56,23 @@ impl Default for LavaTubeParams {
     }
 }
 
+impl LavaTubeParams {
+    /// A 30 m tube with a gentle entrance, a wide squeeze and a 6 m side
+    /// pocket: a whole exploration in a few minutes of mission time.
+    pub fn short() -> Self {
+        LavaTubeParams {
+            length_m: 30.0,
+            boulders_per_10m: 1.5,
+            entrance_length_m: 6.0,
+            entrance_slope_deg: 10.0,
+            squeeze_diameter_m: 2.6,
+            branch_at: 0.5,
+            branch_length_m: 6.0,
+            ..LavaTubeParams::default()
+        }
+    }
+}
+
 /// Station spacing along the tube and vertices per ring.
 const STEP_M: f64 = 0.5;
 const RING: usize = 40;

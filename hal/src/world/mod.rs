@@ -18,7 +18,7 @@ use std::path::Path;
 pub use mesh::{CleanStats, Mesh, MeshError, Surface};
 
 /// Worlds known by name.
-pub const NAMES: [&str; 4] = ["lava-tube", "garage", "boulders", "flat"];
+pub const NAMES: [&str; 5] = ["lava-tube", "short-tube", "garage", "boulders", "flat"];
 
 #[derive(Clone, Debug)]
 pub struct World {
@@ -46,6 +46,17 @@ impl World {
         match name {
             "lava-tube" => {
                 let t = lava_tube::generate(seed, &lava_tube::LavaTubeParams::default());
+                Ok(World {
+                    name: name.into(),
+                    mesh: t.mesh,
+                    floor_area_m2: t.floor_area_m2,
+                    start: t.start,
+                    route: t.route,
+                    named: Vec::new(),
+                })
+            }
+            "short-tube" => {
+                let t = lava_tube::generate(seed, &lava_tube::LavaTubeParams::short());
                 Ok(World {
                     name: name.into(),
                     mesh: t.mesh,
