@@ -317,6 +317,10 @@ pub struct SimArgs {
     /// the true poses at the same times beside it as NAME.truth.EXT.
     #[arg(long, value_name = "OUT.tum")]
     pub trajectory: Option<PathBuf>,
+    /// Draw the explored map with the rover's track, from above and from
+    /// the side, as a PNG.
+    #[arg(long, value_name = "OUT.png")]
+    pub plot: Option<PathBuf>,
     #[command(flatten)]
     pub out: Outputs,
 }

@@ -72,6 +72,8 @@ pub struct MissionResult {
     /// heading in the world (simulation), for the coverage figures.
     pub exploration: Option<crate::exploration_figures::ExplorationFigures>,
     pub explored: Option<speleo_traversability::TravMap>,
+    /// Where the exploration started (map frame).
+    pub exploration_home: Option<[f64; 3]>,
     pub world_from_map: Option<([f64; 3], f64)>,
     pub frames: u64,
     pub sim_time_s: f64,
@@ -528,6 +530,7 @@ pub fn run<C: FrameClock>(
     Ok(MissionResult {
         exploration,
         explored,
+        exploration_home: t_plan.exploration().map(|e| e.explorer.home()),
         world_from_map: track.odom_origin,
         frames,
         sim_time_s: frames as f64 * minor_frame_us as f64 * 1e-6,

@@ -326,8 +326,49 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         crate::slam_figures::write_tum(path, rows)
             .map_err(|e| format!("writing {}: {e}", path.display()))?;
     }
+    if let Some(path) = &a.plot {
+        crate::plot::write_plot(path, &plot_data(&result))?;
+    }
     print_summary(&result);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The explored graph and the tracks, in the world frame when the map
+/// frame's place in it is known (simulation), else in the map frame.
+fn plot_data(r: &MissionResult) -> crate::plot::PlotData {
+    use crate::plot::{PatchShade, PlotData};
+    use speleo_traversability::TravClass;
+    let (origin, heading) = r.world_from_map.unwrap_or(([0.0; 3], 0.0));
+    let (s, c) = heading.sin_cos();
+    let to_world = |p: [f64; 3]| {
+        [
+            origin[0] + c * p[0] - s * p[1],
+            origin[1] + s * p[0] + c * p[1],
+            origin[2] + p[2],
+        ]
+    };
+    let mut d = PlotData::default();
+    if let Some(t) = &r.explored {
+        for n in t.nodes() {
+            let shade = match n.class {
+                TravClass::Traversable => PatchShade::Ground,
+                TravClass::Explorable | TravClass::Frontier => PatchShade::Border,
+                TravClass::Obstacle | TravClass::Unknown => PatchShade::Obstacle,
+            };
+            d.patches.push((to_world(t.position(n)), shade));
+        }
+    }
+    if let Some(slam) = &r.slam {
+        // SLAM puts its keyframes in the world frame when it knows it.
+        d.track = slam.trajectory.iter().map(|k| k.position).collect();
+        d.truth = slam
+            .trajectory
+            .iter()
+            .filter_map(|k| k.truth.map(|t| t.0))
+            .collect();
+    }
+    d.home = r.exploration_home.map(to_world);
+    d
 }
 
 /// The exploration's ground-truth figures: the chassis' strikes, and the

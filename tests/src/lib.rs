@@ -39,6 +39,7 @@ pub fn sim_with_trajectory(
             duration: Some(duration_s),
             config: config.map(Path::to_path_buf),
             trajectory: trajectory.map(Path::to_path_buf),
+            plot: None,
             out: Outputs {
                 record: record.map(Path::to_path_buf),
                 report: report.map(Path::to_path_buf),

@@ -28,7 +28,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use speleo_mapping::mls::MlsMap;
-use speleo_traversability::{TravMap, NONE};
+use speleo_traversability::{Node, TravMap, NONE};
 
 use crate::mprim::MprimFile;
 use crate::{Lattice, INFINITE_COST};
@@ -119,6 +119,9 @@ pub struct SurfaceLattice {
     /// Squared inscribed radius of the body, cells: a node with something
     /// seen nearer collides in every orientation.
     inscribed_d2: f64,
+    /// The start's cell: what the map shows within [`ESCAPE_CELLS`] of it
+    /// does not stop a primitive (see [`SurfaceLattice::set_escape`]).
+    escape: Option<(i32, i32)>,
     heuristic: Vec<u32>,
     /// The map's occupied height intervals (min, max) in each cell of the
     /// nodes' bounding box grown by the body's reach; NaN pairs are
@@ -145,6 +148,9 @@ fn direction(dx: i32, dy: i32) -> Option<u8> {
 /// circle is checked, Dijkstra pops. Chosen so that a unit of each costs
 /// about one expansion (~10 us on the lava tube; see the planner README).
 const SOLID_PER_UNIT: usize = 128;
+/// Radius around the start within which the map does not stop a
+/// primitive, cells (0.3 m at 0.1 m cells).
+pub const ESCAPE_CELLS: i32 = 3;
 const ROOM_PER_UNIT: usize = 12;
 const POPS_PER_UNIT: usize = 96;
 
@@ -190,6 +196,7 @@ impl SurfaceLattice {
             clear: Vec::with_capacity(n),
             blocked_d2: Vec::with_capacity(n),
             inscribed_d2,
+            escape: None,
             heuristic: Vec::with_capacity(n),
             solid: Vec::with_capacity(max_grid_cells),
             origin: (0, 0),
@@ -225,6 +232,22 @@ impl SurfaceLattice {
 
     /// Prepare a query to node `goal` at any heading (see
     /// [`begin`](Self::begin)).
+    /// Let primitives pass whatever the map shows within [`ESCAPE_CELLS`]
+    /// of node `start` (none: every pose is checked). The rover stands
+    /// there, so it fits: what the map shows that close is its own noise, a
+    /// wall the rover leans on after a slip, or the lean itself. Without
+    /// this a rover stopped near a wall could never plan its way out.
+    pub fn set_escape(&mut self, start: Option<u32>) {
+        self.escape = start.and_then(|n| self.trav.node(n)).map(|n| (n.ix, n.iy));
+    }
+
+    fn near_escape(&self, n: &Node) -> bool {
+        self.escape.is_some_and(|(ix, iy)| {
+            let (dx, dy) = (n.ix - ix, n.iy - iy);
+            dx * dx + dy * dy <= ESCAPE_CELLS * ESCAPE_CELLS
+        })
+    }
+
     pub fn begin_any_heading(&mut self, goal: u32) -> Result<(), String> {
         self.begin((goal, 0))?;
         self.any_heading = true;
@@ -496,8 +519,8 @@ impl SurfaceLattice {
                 return None;
             }
             let b = &nodes[next as usize];
-            if !b.class.is_drivable() || (self.blocked_d2[next as usize] as f64) < self.inscribed_d2
-            {
+            let crowded = (self.blocked_d2[next as usize] as f64) < self.inscribed_d2;
+            if !b.class.is_drivable() || (crowded && !self.near_escape(b)) {
                 return None;
             }
             let xy = if k % 2 == 0 {
@@ -520,6 +543,9 @@ impl SurfaceLattice {
         for &(ox, oy, k) in oriented {
             let at = path[(k as usize).min(path.len() - 1)] as usize;
             let nd = &nodes[at];
+            if self.near_escape(nd) {
+                continue;
+            }
             let (ix, iy) = (start.ix + ox, start.iy + oy);
             // Every cell nearer a path node than the nearest cell with
             // something in the band (within the body's circle, where this

@@ -278,3 +278,162 @@ impl ControlTask {
             .map(|r| (r, self.counters.stops[r as usize - 1]))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::{PlanMsg, SlamPose};
+    use crate::surface_maps::SurfaceMaps;
+    use crate::tasks::test_context as cx;
+    use speleo_control::{AccelLimits, FollowerParams, SafetyParams};
+    use speleo_mapping::mls::MlsParams;
+
+    /// Ground seen for x in [0, 5), y in [0, 4); nothing beyond (a drop
+    /// the LiDAR could not see into).
+    fn bus_with_a_ledge() -> Box<Bus> {
+        let mut bus = Bus::new();
+        bus.surface = SurfaceMaps::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+        let mut pts = Vec::new();
+        for i in 0..100 {
+            for j in 0..80 {
+                pts.push([i as f64 * 0.05 + 0.025, j as f64 * 0.05 + 0.025, 0.0]);
+            }
+        }
+        let m = bus.surface.active();
+        bus.surface.map_mut(m).insert_points(&pts);
+        bus
+    }
+
+    fn task() -> ControlTask {
+        ControlTask::new(
+            PurePursuit::new(
+                FollowerParams {
+                    lookahead_m: 0.8,
+                    cruise_speed: 0.4,
+                    max_yaw_rate: 0.8,
+                    goal_tolerance_m: 0.2,
+                },
+                Path::new(),
+                false,
+            ),
+            SkidSteer {
+                wheel_radius_m: 0.19,
+                track_width_m: 0.52,
+                skid_factor: 1.0,
+                max_wheel_speed: 5.0,
+            },
+            AccelLimiter::new(AccelLimits {
+                max_accel: 0.5,
+                max_decel: 1.0,
+                max_yaw_accel: 2.0,
+            }),
+            SafetyMonitor::new(SafetyParams::default()),
+        )
+        .following_plans()
+    }
+
+    /// Drive a unicycle with the task's commands from (1, 2) heading +x
+    /// along a plan to (9, 2), past the ledge; the x where it came to rest
+    /// and the last command.
+    fn drive(bus: &mut Bus, t: &mut ControlTask) -> (f64, WheelCommand) {
+        let mut plan = PlanMsg {
+            query: 1,
+            execute: true,
+            optimal: true,
+            ..PlanMsg::default()
+        };
+        for k in 0..=80 {
+            let _ = plan.poses.push([1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        }
+        bus.plan.publish(0, plan);
+        let (mut x, mut y, mut yaw) = (1.0, 2.0, 0.0f64);
+        for f in (1..3000).step_by(2) {
+            let q = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+            bus.slam.publish(
+                0,
+                SlamPose {
+                    position: [x, y, 0.17],
+                    orientation: q,
+                    keyframes: 1,
+                },
+            );
+            t.run(bus, &cx(f));
+            let c = bus
+                .command
+                .get()
+                .unwrap_or_else(|| panic!("no command"))
+                .value;
+            if c.done {
+                return (x, c);
+            }
+            let dt = 0.02;
+            yaw += c.yaw_rate * dt;
+            x += c.speed * yaw.cos() * dt;
+            y += c.speed * yaw.sin() * dt;
+        }
+        panic!("the traverse never ended at x = {x}");
+    }
+
+    #[test]
+    fn the_safety_monitor_stops_the_rover_before_it_leaves_the_map() {
+        let mut bus = bus_with_a_ledge();
+        let mut t = task();
+        let (x, c) = drive(&mut bus, &mut t);
+        assert_eq!(StopReason::from_code(c.stop), Some(StopReason::LeavingMap));
+        assert_eq!((c.speed, c.yaw_rate), (0.0, 0.0));
+        assert_eq!(c.plan, 1);
+        // The wheels' front (half the body ahead of base_link) is still
+        // over the ground that was seen.
+        assert!(x + 0.5 < 5.0 && x > 3.5, "stopped at x = {x}");
+        assert_eq!(t.counters.stops[StopReason::LeavingMap as usize - 1], 1);
+    }
+
+    #[test]
+    fn a_plan_on_seen_ground_is_driven_to_its_end() {
+        let mut bus = bus_with_a_ledge();
+        let mut t = task();
+        let mut plan = PlanMsg {
+            query: 1,
+            execute: true,
+            ..PlanMsg::default()
+        };
+        // Out along the ground, then backing up to x = 2.5.
+        for k in 0..=20 {
+            let _ = plan.poses.push([1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        }
+        for k in 1..=5 {
+            let _ = plan.poses.push([3.0 - 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        }
+        bus.plan.publish(0, plan);
+        let (mut x, mut yaw) = (1.0, 0.0f64);
+        let mut reversed = false;
+        for f in (1..3000).step_by(2) {
+            let q = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+            bus.slam.publish(
+                0,
+                SlamPose {
+                    position: [x, 2.0, 0.17],
+                    orientation: q,
+                    keyframes: 1,
+                },
+            );
+            t.run(&mut bus, &cx(f));
+            let c = bus
+                .command
+                .get()
+                .unwrap_or_else(|| panic!("no command"))
+                .value;
+            if c.done {
+                assert_eq!(c.stop, 0);
+                assert!(reversed, "the last leg is driven backward");
+                assert!((x - 2.5).abs() < 0.3, "ended at {x}");
+                assert!(yaw.abs() < 0.1, "it did not turn round: {yaw}");
+                return;
+            }
+            reversed |= c.speed < -0.05;
+            yaw += c.yaw_rate * 0.02;
+            x += c.speed * yaw.cos() * 0.02;
+        }
+        panic!("never ended");
+    }
+}

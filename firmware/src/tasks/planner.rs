@@ -442,6 +442,8 @@ impl PlannerTask {
             return Phase::Idle;
         }
         self.query.tried = k;
+        let (start, _) = self.lat.decode(self.query.start_state);
+        self.lat.set_escape(Some(start));
         if let Some(ex) = &mut self.explore {
             ex.counters.goals_attempted += 1;
         }
@@ -840,6 +842,52 @@ mod tests {
             t.counters
         );
         assert!(bus.plan.get().is_none());
+    }
+
+    fn exploring_task() -> PlannerTask {
+        let e = crate::config::ExplorationConfig::default();
+        task(&[]).with_exploration(Exploration::new(
+            e.explorer_params(),
+            e.candidate_params(),
+            None,
+            0.0,
+        ))
+    }
+
+    #[test]
+    fn exploring_plans_to_the_border_of_the_map_and_marks_the_plan_to_be_driven() {
+        let mut bus = bus_on_a_floor();
+        let mut t = exploring_task();
+        run_query(&mut t, &mut bus);
+        let plan = bus
+            .plan
+            .get()
+            .unwrap_or_else(|| panic!("no plan"))
+            .value
+            .clone();
+        assert!(plan.execute && plan.optimal, "{plan:?}");
+        let last = plan.poses[plan.poses.len() - 1];
+        // A border of the seen floor (nothing was seen beyond it) outside
+        // the 3 m the rover has covered around (1, 2).
+        let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
+        assert_eq!(ex.counters.plans_executed, 1);
+        assert_eq!(ex.executing, plan.query);
+        let g = bus.exploration.goal.unwrap_or_else(|| panic!("no goal"));
+        assert!(
+            (last[0] as f64 - g[0]).abs() < 0.2 && (last[1] as f64 - g[1]).abs() < 0.2,
+            "{last:?} {g:?}"
+        );
+        assert!(
+            ((g[0] - 1.0).powi(2) + (g[1] - 2.0).powi(2)).sqrt() > 2.9,
+            "{g:?}"
+        );
+        let border = g[0] < 0.2 || g[1] < 0.2 || g[0] > 11.8 || g[1] > 3.8;
+        assert!(border, "{g:?}");
+        // No new query while the plan is not driven.
+        for f in 0..500 {
+            t.step(&mut bus, &cx(20_000 + f), 32);
+        }
+        assert_eq!(t.counters.queries, 1);
     }
 
     #[test]
