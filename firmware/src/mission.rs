@@ -206,16 +206,16 @@ fn follower(cfg: &Config) -> PurePursuit {
     for p in &cfg.control.path {
         let _ = path.push(*p);
     }
-    PurePursuit::new(
-        FollowerParams {
-            lookahead_m: cfg.control.lookahead_m,
-            cruise_speed: cfg.control.cruise_speed,
-            max_yaw_rate: cfg.control.max_yaw_rate,
-            goal_tolerance_m: 0.2,
-        },
-        path,
-        cfg.control.looped,
-    )
+    PurePursuit::new(follower_params(cfg), path, cfg.control.looped)
+}
+
+fn follower_params(cfg: &Config) -> FollowerParams {
+    FollowerParams {
+        lookahead_m: cfg.control.lookahead_m,
+        cruise_speed: cfg.control.cruise_speed,
+        max_yaw_rate: cfg.control.max_yaw_rate,
+        goal_tolerance_m: 0.2,
+    }
 }
 
 /// Run the mission. The tap is created by the caller (with or without a
@@ -309,7 +309,7 @@ pub fn run<C: FrameClock>(
     );
     let exploring = planner_on && cfg.exploration.enabled;
     if exploring {
-        t_control = t_control.following_plans();
+        t_control = t_control.following_plans(follower_params(cfg));
     }
     let mut t_out =
         drive_output::DriveOutput::new(speleo_hal::canopen::supervisor::SupervisorParams {

@@ -9,10 +9,12 @@
 
 pub mod legs;
 pub mod limits;
+pub mod plan_follower;
 pub mod safety;
 
 pub use legs::{split_legs, Leg, MAX_LEGS};
 pub use limits::{AccelLimiter, AccelLimits};
+pub use plan_follower::PlanFollower;
 pub use safety::{GroundProbe, Probe, SafetyMonitor, SafetyParams, StopReason};
 
 /// Most waypoints in one path.

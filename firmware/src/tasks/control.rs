@@ -12,13 +12,13 @@
 
 use speleo_control::safety::MonitorInput;
 use speleo_control::{
-    split_legs, AccelLimiter, GroundProbe, Leg, Path, Probe, PurePursuit, SafetyMonitor, SkidSteer,
-    StopReason, MAX_LEGS,
+    AccelLimiter, FollowerParams, GroundProbe, PlanFollower, Probe, PurePursuit, SafetyMonitor,
+    SkidSteer, StopReason, Twist,
 };
 use speleo_mapping::mls::{MlsMap, PatchKind};
 use speleo_scheduler::{Context, Task};
 
-use crate::bus::{Bus, WheelCommand, PLAN_POSES};
+use crate::bus::{Bus, WheelCommand};
 
 /// What the task did on plans.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -31,18 +31,15 @@ pub struct ControlCounters {
 }
 
 pub struct ControlTask {
+    /// The configured path.
     follower: PurePursuit,
+    /// The plans, when following plans (exploration).
+    plans: Option<PlanFollower>,
     skid: SkidSteer,
     limiter: AccelLimiter,
     monitor: SafetyMonitor,
-    /// Drive the plans marked to be driven instead of the configured path.
-    follow_plans: bool,
-    /// The plan being followed (0: none yet), its poses (x, y, heading),
-    /// its legs and the leg being driven.
+    /// The plan being followed (0: none yet).
     following: u64,
-    poses: heapless::Vec<[f64; 3], PLAN_POSES>,
-    legs: heapless::Vec<Leg, MAX_LEGS>,
-    leg: usize,
     stop: u8,
     last_run_ns: Option<u64>,
     /// Reduced mode: half speed.
@@ -59,14 +56,11 @@ impl ControlTask {
     ) -> Self {
         ControlTask {
             follower,
+            plans: None,
             skid,
             limiter,
             monitor,
-            follow_plans: false,
             following: 0,
-            poses: heapless::Vec::new(),
-            legs: heapless::Vec::new(),
-            leg: 0,
             stop: 0,
             last_run_ns: None,
             degraded: false,
@@ -74,16 +68,16 @@ impl ControlTask {
         }
     }
 
-    /// Follow the planner's plans (exploration) instead of the configured path.
-    pub fn following_plans(mut self) -> Self {
-        self.follow_plans = true;
-        self.follower.abandon();
+    /// Follow the planner's plans (exploration) instead of the configured
+    /// path, with the configured path's follower settings.
+    pub fn following_plans(mut self, p: FollowerParams) -> Self {
+        self.plans = Some(PlanFollower::new(p));
         self
     }
 
     /// Take a new plan to drive, if the planner has marked one.
     fn take_plan(&mut self, bus: &Bus) {
-        let Some(plan) = bus.plan.get().map(|p| &p.value) else {
+        let (Some(plans), Some(plan)) = (&mut self.plans, bus.plan.get().map(|p| &p.value)) else {
             return;
         };
         if !plan.execute || plan.query <= self.following {
@@ -93,64 +87,26 @@ impl ControlTask {
         self.stop = 0;
         self.monitor.reset();
         self.counters.plans_followed += 1;
-        self.poses.clear();
-        for p in &plan.poses {
-            let _ = self.poses.push([p[0] as f64, p[1] as f64, p[3] as f64]);
-        }
-        split_legs(&self.poses, &mut self.legs);
-        self.leg = 0;
-        if !self.start_leg() {
+        let poses = plan.poses.iter().map(|p| [p[0] as f64, p[1] as f64, p[3] as f64]);
+        if !plans.set_plan(poses) {
             // Already there.
-            self.follower.abandon();
             self.counters.plans_completed += 1;
         }
     }
 
-    /// Follow leg `self.leg`; false when there is none.
-    fn start_leg(&mut self) -> bool {
-        let Some(l) = self.legs.get(self.leg).copied() else {
-            return false;
-        };
-        let mut path = Path::new();
-        for p in &self.poses[l.start..=l.end] {
-            let q = [p[0], p[1]];
-            if path.last() != Some(&q) && path.push(q).is_err() {
-                break;
+    /// The command, and whether the path or plan had already ended.
+    fn command(&mut self, x: f64, y: f64, yaw: f64) -> (Twist, bool) {
+        match &mut self.plans {
+            Some(p) => {
+                let was_done = p.done();
+                (p.command(x, y, yaw), was_done)
             }
+            None => (self.follower.command(x, y, yaw), self.follower.done()),
         }
-        if path.len() < 2 {
-            return false;
-        }
-        self.follower.set_path(path, false);
-        true
     }
 
-    fn reversing(&self) -> bool {
-        self.follow_plans && self.legs.get(self.leg).is_some_and(|l| l.reverse)
-    }
-
-    /// The command on the current leg; the next leg when this one is done.
-    fn follow(&mut self, x: f64, y: f64, yaw: f64) -> speleo_control::Twist {
-        loop {
-            // Backward: pure pursuit for the rover turned about.
-            let reverse = self.reversing();
-            let heading = if reverse {
-                yaw + std::f64::consts::PI
-            } else {
-                yaw
-            };
-            let mut t = self.follower.command(x, y, heading);
-            if reverse {
-                t.v = -t.v;
-            }
-            if !self.follower.done() || !self.follow_plans || self.leg + 1 >= self.legs.len() {
-                return t;
-            }
-            self.leg += 1;
-            if !self.start_leg() {
-                return t;
-            }
-        }
+    fn done(&self) -> bool {
+        self.plans.as_ref().map_or(self.follower.done(), PlanFollower::done)
     }
 }
 
@@ -205,9 +161,7 @@ impl Task<Bus> for ControlTask {
             return;
         };
         let p = pose.value;
-        if self.follow_plans {
-            self.take_plan(bus);
-        }
+        self.take_plan(bus);
         let dt = self
             .last_run_ns
             .map_or(0.02, |t| (cx.time_ns.saturating_sub(t)) as f64 * 1e-9)
@@ -215,14 +169,14 @@ impl Task<Bus> for ControlTask {
         self.last_run_ns = Some(cx.time_ns);
         let [x, y, _] = p.position;
         let yaw = yaw_of(p.orientation);
-        let was_done = self.follower.done();
-        let mut t = self.follow(x, y, yaw);
+        let (mut t, was_done) = self.command(x, y, yaw);
         if self.degraded {
             t.v *= 0.5;
             t.w *= 0.5;
         }
-        if self.follow_plans && self.following != 0 && !was_done {
-            if self.follower.done() {
+        let following = self.following != 0;
+        if let (Some(plans), true) = (&mut self.plans, following && !was_done) {
+            if plans.done() {
                 self.counters.plans_completed += 1;
             } else {
                 let input = MonitorInput {
@@ -232,13 +186,13 @@ impl Task<Bus> for ControlTask {
                     tilt_deg: tilt_deg_of(p.orientation),
                     v: t.v,
                     w: t.w,
-                    remaining_m: self.follower.remaining_m(x, y),
-                    cross_track_m: self.follower.cross_track_m(x, y),
+                    remaining_m: plans.remaining_m(x, y),
+                    cross_track_m: plans.cross_track_m(x, y),
                 };
                 if let Some(r) = self.monitor.check(&input, &MlsProbe(bus.surface.serving())) {
                     self.stop = r as u8;
                     self.counters.stops[r as usize - 1] += 1;
-                    self.follower.abandon();
+                    plans.abandon();
                     // A safety stop does not ramp.
                     self.limiter.halt();
                     t.v = 0.0;
@@ -253,8 +207,12 @@ impl Task<Bus> for ControlTask {
                 speed: v,
                 yaw_rate: w,
                 wheel_speeds: self.skid.wheel_speeds(v, w),
-                segment: self.follower.segment() as u32,
-                done: self.follower.done(),
+                segment: self
+                    .plans
+                    .as_ref()
+                    .map_or(self.follower.segment(), PlanFollower::segment)
+                    as u32,
+                done: self.done(),
                 plan: self.following,
                 stop: self.stop,
             },
@@ -285,7 +243,7 @@ mod tests {
     use crate::bus::{PlanMsg, SlamPose};
     use crate::surface_maps::SurfaceMaps;
     use crate::tasks::test_context as cx;
-    use speleo_control::{AccelLimits, FollowerParams, SafetyParams};
+    use speleo_control::{AccelLimits, Path, SafetyParams};
     use speleo_mapping::mls::MlsParams;
 
     /// Ground seen for x in [0, 5), y in [0, 4); nothing beyond (a drop
@@ -329,7 +287,12 @@ mod tests {
             }),
             SafetyMonitor::new(SafetyParams::default()),
         )
-        .following_plans()
+        .following_plans(FollowerParams {
+            lookahead_m: 0.8,
+            cruise_speed: 0.4,
+            max_yaw_rate: 0.8,
+            goal_tolerance_m: 0.2,
+        })
     }
 
     /// Drive a unicycle with the task's commands from (1, 2) heading +x

@@ -1,0 +1,118 @@
+//! Following a plan leg by leg (see [`crate::legs`]): the control task
+//! drives the rover with it, and the internal simulator drives the
+//! simulated rover with a clone of it, so both follow a plan alike.
+
+use crate::legs::{split_legs, Leg, MAX_LEGS};
+use crate::{FollowerParams, Path, PurePursuit, Twist, MAX_WAYPOINTS};
+
+#[derive(Clone, Debug)]
+pub struct PlanFollower {
+    follower: PurePursuit,
+    /// The plan's poses (x, y, heading), its legs and the leg being driven.
+    poses: heapless::Vec<[f64; 3], MAX_WAYPOINTS>,
+    legs: heapless::Vec<Leg, MAX_LEGS>,
+    leg: usize,
+}
+
+impl PlanFollower {
+    /// A follower with nothing to follow.
+    pub fn new(p: FollowerParams) -> Self {
+        let mut follower = PurePursuit::new(p, Path::new(), false);
+        follower.abandon();
+        PlanFollower {
+            follower,
+            poses: heapless::Vec::new(),
+            legs: heapless::Vec::new(),
+            leg: 0,
+        }
+    }
+
+    /// Follow `poses` (x, y, heading) from the first; false when they do
+    /// not move (already there: nothing to follow).
+    pub fn set_plan(&mut self, poses: impl IntoIterator<Item = [f64; 3]>) -> bool {
+        self.poses.clear();
+        for p in poses {
+            if self.poses.push(p).is_err() {
+                break;
+            }
+        }
+        split_legs(&self.poses, &mut self.legs);
+        self.leg = 0;
+        if self.start_leg() {
+            true
+        } else {
+            self.follower.abandon();
+            false
+        }
+    }
+
+    fn start_leg(&mut self) -> bool {
+        let Some(l) = self.legs.get(self.leg).copied() else {
+            return false;
+        };
+        let mut path = Path::new();
+        for p in &self.poses[l.start..=l.end] {
+            let q = [p[0], p[1]];
+            if path.last() != Some(&q) && path.push(q).is_err() {
+                break;
+            }
+        }
+        if path.len() < 2 {
+            return false;
+        }
+        self.follower.set_path(path, false);
+        true
+    }
+
+    /// The leg being driven is driven backward.
+    pub fn reversing(&self) -> bool {
+        self.legs.get(self.leg).is_some_and(|l| l.reverse)
+    }
+
+    /// The command for the rover at (x, y) heading `yaw`; the next leg
+    /// when this one is done.
+    pub fn command(&mut self, x: f64, y: f64, yaw: f64) -> Twist {
+        loop {
+            // Backward: pure pursuit for the rover turned about.
+            let reverse = self.reversing();
+            let heading = if reverse { yaw + core::f64::consts::PI } else { yaw };
+            let mut t = self.follower.command(x, y, heading);
+            if reverse {
+                t.v = -t.v;
+            }
+            if !self.follower.done() || self.leg + 1 >= self.legs.len() {
+                return t;
+            }
+            self.leg += 1;
+            if !self.start_leg() {
+                return t;
+            }
+        }
+    }
+
+    pub fn done(&self) -> bool {
+        self.follower.done()
+    }
+
+    pub fn abandon(&mut self) {
+        self.follower.abandon();
+    }
+
+    pub fn segment(&self) -> usize {
+        self.follower.segment()
+    }
+
+    /// Left on the current leg, m.
+    pub fn remaining_m(&self, x: f64, y: f64) -> f64 {
+        self.follower.remaining_m(x, y)
+    }
+
+    pub fn cross_track_m(&self, x: f64, y: f64) -> f64 {
+        self.follower.cross_track_m(x, y)
+    }
+
+    /// The plan's last pose.
+    pub fn goal(&self) -> Option<[f64; 3]> {
+        self.poses.last().copied()
+    }
+}
