@@ -247,6 +247,12 @@ impl PhysicsRover {
         Ok(rover)
     }
 
+    /// Add more of the world's surface (the internal simulator builds its
+    /// ground a piece at a time).
+    pub fn add_ground(&mut self, mesh: &Mesh) -> Result<(), String> {
+        add_ground(&mut self.world, &self.p, mesh)
+    }
+
     pub fn params(&self) -> &PhysicsParams {
         &self.p
     }

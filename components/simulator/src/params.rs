@@ -1,0 +1,104 @@
+//! Settings of the internal simulator.
+
+use speleo_control::{AccelLimits, FollowerParams, SkidSteer};
+use speleo_hal::sim::PhysicsParams;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimulatorParams {
+    /// The rover model (the same build the simulated hardware uses).
+    pub physics: PhysicsParams,
+    /// The follower clone: the control task's settings.
+    pub follower: FollowerParams,
+    pub limits: AccelLimits,
+    pub skid: SkidSteer,
+    /// TSDF voxel side, m (the paper's mesh: 5 cm), and its block pool.
+    pub voxel_m: f64,
+    pub max_blocks: usize,
+    /// The world is the box around the plan grown by this, m.
+    pub margin_m: f64,
+    /// Keyframes whose sensor is within this of that box are integrated, m.
+    pub cloud_range_m: f64,
+    /// Width of a meshing tile (one rapier collider each), m.
+    pub tile_m: f64,
+    /// Physics step, s.
+    pub dt_s: f64,
+    /// The rover stands this long before it drives, s (it settles).
+    pub settle_s: f64,
+    /// The goal is reached within this distance, m.
+    pub goal_tolerance_m: f64,
+    /// The time allowed: this many times the plan's length at cruise
+    /// speed, plus `time_extra_s`.
+    pub time_factor: f64,
+    pub time_extra_s: f64,
+    /// A tilt over this is a tip-over, deg.
+    pub tip_over_deg: f64,
+    /// Commanded for this long without this much progress: stuck.
+    pub stuck_after_s: f64,
+    pub stuck_progress_m: f64,
+    /// Ground under base_link, m.
+    pub base_height_m: f64,
+}
+
+impl Default for SimulatorParams {
+    fn default() -> Self {
+        let physics = PhysicsParams::default();
+        SimulatorParams {
+            follower: FollowerParams {
+                lookahead_m: 0.8,
+                cruise_speed: 0.4,
+                max_yaw_rate: 0.8,
+                goal_tolerance_m: 0.2,
+            },
+            limits: AccelLimits {
+                max_accel: 0.5,
+                max_decel: 1.0,
+                max_yaw_accel: 2.0,
+            },
+            skid: SkidSteer {
+                wheel_radius_m: physics.wheel_radius_m,
+                track_width_m: physics.track_width_m,
+                skid_factor: 1.0,
+                max_wheel_speed: physics.max_wheel_speed,
+            },
+            voxel_m: 0.05,
+            max_blocks: 16_384,
+            margin_m: 2.0,
+            cloud_range_m: 15.0,
+            tile_m: 0.5,
+            dt_s: 0.002,
+            settle_s: 0.3,
+            goal_tolerance_m: 0.5,
+            time_factor: 2.0,
+            time_extra_s: 10.0,
+            tip_over_deg: 45.0,
+            stuck_after_s: 6.0,
+            stuck_progress_m: 0.1,
+            base_height_m: 0.9 * physics.wheel_radius_m,
+            physics,
+        }
+    }
+}
+
+impl SimulatorParams {
+    pub fn check(&self) -> Result<(), String> {
+        let positive = [
+            ("voxel_m", self.voxel_m),
+            ("margin_m", self.margin_m),
+            ("tile_m", self.tile_m),
+            ("dt_s", self.dt_s),
+            ("goal_tolerance_m", self.goal_tolerance_m),
+            ("time_factor", self.time_factor),
+            ("tip_over_deg", self.tip_over_deg),
+            ("stuck_after_s", self.stuck_after_s),
+        ];
+        for (k, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("simulator {k} must be a positive number, is {v}"));
+            }
+        }
+        if self.max_blocks == 0 {
+            return Err("simulator max_blocks must be positive".into());
+        }
+        self.physics.validate()
+    }
+}

@@ -1,0 +1,364 @@
+//! One validation: build the world around the plan, settle the rover,
+//! drive the plan, judge.
+
+use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS};
+use speleo_hal::sim::physics::PhysicsRover;
+use speleo_hal::world::Mesh;
+
+use crate::prediction::Prediction;
+use crate::terrain::Terrain;
+use crate::SimulatorParams;
+
+/// The keyframe clouds the world is made of: the map the rover built.
+pub trait CloudSource {
+    fn keyframes(&self) -> usize;
+    /// Keyframe `k`'s sensor position in the map frame, once it has a pose.
+    fn origin(&self, k: usize) -> Option<[f64; 3]>;
+    /// Up to `n` of keyframe `k`'s points (map frame) from point `from`
+    /// into `out` (cleared first); false when there are none left.
+    fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// The goal reached within the tolerance and the time.
+    Reached,
+    /// The time allowed ran out.
+    Timeout,
+    TippedOver,
+    /// Commanded to move without moving (a step too high, a wedge).
+    Stuck,
+    /// The follower ended away from the goal.
+    Missed,
+    /// There was no ground under the rover (the map is empty there).
+    NoGround,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Verdict {
+    pub outcome: Outcome,
+    /// Simulated time driving, s, and the distance left to the goal, m.
+    pub drive_s: f64,
+    pub goal_error_m: f64,
+}
+
+impl Verdict {
+    pub fn success(&self) -> bool {
+        self.outcome == Outcome::Reached
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SimCounters {
+    pub runs: u64,
+    pub physics_steps: u64,
+    pub points_integrated: u64,
+    pub triangles_max: u64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    Idle,
+    /// Integrating keyframe `k` from point `from`.
+    Integrate { k: usize, from: usize },
+    /// Meshing tile `tile` into the world.
+    Ground { tile: usize },
+    Drive,
+    Done,
+}
+
+/// Work units: points integrated, and physics steps (about 40 us each).
+const POINTS_PER_UNIT: usize = 32;
+const UNITS_PER_STEP: usize = 4;
+/// A tile's meshing and its collider count this many units.
+const UNITS_PER_TILE: usize = 16;
+/// The follower runs at 50 Hz, as the control task does.
+const CONTROL_PERIOD_S: f64 = 0.02;
+const SAMPLE_PERIOD_S: f64 = 0.1;
+
+/// See the crate documentation.
+pub struct InternalSim {
+    p: SimulatorParams,
+    terrain: Terrain,
+    rover: Option<Box<PhysicsRover>>,
+    follower: PlanFollower,
+    limiter: AccelLimiter,
+    plan: heapless::Vec<[f64; 4], MAX_WAYPOINTS>,
+    /// base_link at the start: x, y, z, yaw.
+    start: [f64; 4],
+    phase: Phase,
+    step: u64,
+    targets: [f64; 4],
+    /// Steps since motion began, once it has.
+    moving_since: Option<u64>,
+    time_allowed_s: f64,
+    /// Stuck detection: when and where progress was last seen.
+    anchor: (f64, [f64; 2]),
+    prediction: Prediction,
+    scratch: Vec<[f64; 3]>,
+    verdict: Option<Verdict>,
+    pub counters: SimCounters,
+}
+
+impl InternalSim {
+    pub fn new(p: SimulatorParams) -> Result<Self, String> {
+        p.check()?;
+        Ok(InternalSim {
+            terrain: Terrain::new(&p)?,
+            rover: None,
+            follower: PlanFollower::new(p.follower.clone()),
+            limiter: AccelLimiter::new(p.limits),
+            plan: heapless::Vec::new(),
+            start: [0.0; 4],
+            phase: Phase::Idle,
+            step: 0,
+            targets: [0.0; 4],
+            moving_since: None,
+            time_allowed_s: 0.0,
+            anchor: (0.0, [0.0; 2]),
+            prediction: Prediction::with_capacity(),
+            scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
+            verdict: None,
+            counters: SimCounters::default(),
+            p,
+        })
+    }
+
+    pub fn params(&self) -> &SimulatorParams {
+        &self.p
+    }
+
+    /// Validate `plan` (x, y, ground z, heading) for the rover whose
+    /// base_link is at `start` (x, y, z, yaw), all in the map frame.
+    pub fn begin(&mut self, start: [f64; 4], plan: impl IntoIterator<Item = [f64; 4]>) {
+        self.plan.clear();
+        for q in plan {
+            if self.plan.push(q).is_err() {
+                break;
+            }
+        }
+        self.start = start;
+        let mut lo = [start[0], start[1], start[2]];
+        let mut hi = lo;
+        for q in &self.plan {
+            for k in 0..3 {
+                lo[k] = lo[k].min(q[k]);
+                hi[k] = hi[k].max(q[k]);
+            }
+        }
+        let m = self.p.margin_m;
+        self.terrain.begin(
+            [lo[0] - m, lo[1] - m, lo[2] - 1.5],
+            [hi[0] + m, hi[1] + m, hi[2] + 2.5],
+        );
+        let length: f64 = self
+            .plan
+            .windows(2)
+            .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+            .sum();
+        self.time_allowed_s =
+            self.p.time_factor * length / self.p.follower.cruise_speed.max(0.05) + self.p.time_extra_s;
+        self.rover = None;
+        self.prediction.clear();
+        self.verdict = None;
+        self.moving_since = None;
+        self.step = 0;
+        self.targets = [0.0; 4];
+        self.limiter.halt();
+        self.counters.runs += 1;
+        self.phase = Phase::Integrate { k: 0, from: 0 };
+    }
+
+    /// The trajectory predicted so far: positions every 0.1 s since motion began.
+    pub fn prediction(&self) -> &[[f64; 3]] {
+        &self.prediction.points
+    }
+
+    pub fn verdict(&self) -> Option<Verdict> {
+        self.verdict
+    }
+
+    /// Triangles of the world built.
+    pub fn triangles(&self) -> usize {
+        self.terrain.triangles
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.terrain.memory_bytes()
+    }
+
+    /// Up to `units` of work; the verdict once there is one.
+    pub fn step(&mut self, clouds: &impl CloudSource, units: usize) -> Option<Verdict> {
+        let mut left = units.max(1);
+        while left > 0 {
+            match self.phase {
+                Phase::Idle | Phase::Done => return self.verdict,
+                Phase::Integrate { k, from } => {
+                    left = left.saturating_sub(1);
+                    self.phase = self.integrate(clouds, k, from);
+                }
+                Phase::Ground { tile } => {
+                    left = left.saturating_sub(UNITS_PER_TILE);
+                    self.phase = self.ground(tile);
+                }
+                Phase::Drive => {
+                    left = left.saturating_sub(UNITS_PER_STEP);
+                    if let Some(v) = self.drive() {
+                        self.verdict = Some(v);
+                        self.phase = Phase::Done;
+                    }
+                }
+            }
+        }
+        self.verdict
+    }
+
+    fn integrate(&mut self, clouds: &impl CloudSource, k: usize, from: usize) -> Phase {
+        if k >= clouds.keyframes() {
+            return self.begin_ground();
+        }
+        let next = Phase::Integrate { k: k + 1, from: 0 };
+        let Some(origin) = clouds.origin(k) else {
+            return next;
+        };
+        if !self.terrain.near(origin, self.p.cloud_range_m) {
+            return next;
+        }
+        let more = clouds.points(k, from, POINTS_PER_UNIT, &mut self.scratch);
+        self.counters.points_integrated += self.terrain.integrate(origin, &mut self.scratch);
+        if more {
+            Phase::Integrate {
+                k,
+                from: from + POINTS_PER_UNIT,
+            }
+        } else {
+            next
+        }
+    }
+
+    fn begin_ground(&mut self) -> Phase {
+        let [x, y, z, yaw] = self.start;
+        let ground = [x, y, z - self.p.base_height_m, yaw];
+        match PhysicsRover::new(&self.p.physics, &Mesh::default(), ground, self.p.dt_s) {
+            Ok(r) => {
+                self.rover = Some(Box::new(r));
+                Phase::Ground { tile: 0 }
+            }
+            Err(_) => self.finish(Outcome::NoGround),
+        }
+    }
+
+    fn ground(&mut self, tile: usize) -> Phase {
+        if tile >= self.terrain.tiles {
+            self.counters.triangles_max = self.counters.triangles_max.max(self.terrain.triangles as u64);
+            if self.terrain.triangles == 0 {
+                return self.finish(Outcome::NoGround);
+            }
+            return Phase::Drive;
+        }
+        self.terrain.mesh_tile(tile);
+        if !self.terrain.chunk.triangles.is_empty() {
+            if let Some(r) = &mut self.rover {
+                // A degenerate tile is left out; the rest still holds.
+                let _ = r.add_ground(&self.terrain.chunk);
+            }
+        }
+        Phase::Ground { tile: tile + 1 }
+    }
+
+    fn finish(&mut self, outcome: Outcome) -> Phase {
+        let goal_error_m = self.goal_error();
+        self.verdict = Some(Verdict {
+            outcome,
+            drive_s: self.moving_since.map_or(0.0, |s| (self.step - s) as f64 * self.p.dt_s),
+            goal_error_m,
+        });
+        Phase::Done
+    }
+
+    fn goal_error(&self) -> f64 {
+        match (&self.rover, self.plan.last()) {
+            (Some(r), Some(g)) => {
+                let p = r.state().position;
+                (p[0] - g[0]).hypot(p[1] - g[1])
+            }
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// One physics step; the follower every control period.
+    fn drive(&mut self) -> Option<Verdict> {
+        let Some(rover) = &mut self.rover else {
+            return Some(Verdict {
+                outcome: Outcome::NoGround,
+                drive_s: 0.0,
+                goal_error_m: f64::INFINITY,
+            });
+        };
+        let dt = self.p.dt_s;
+        let t = self.step as f64 * dt;
+        let control_every = (CONTROL_PERIOD_S / dt).round().max(1.0) as u64;
+        let settle_steps = (self.p.settle_s / dt).round() as u64;
+        let s = *rover.state();
+        let [w, qx, qy, qz] = s.orientation;
+        let yaw = (2.0 * (w * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
+        let tilt = (1.0 - 2.0 * (qx * qx + qy * qy)).clamp(-1.0, 1.0).acos().to_degrees();
+        let (x, y) = (s.position[0], s.position[1]);
+        if self.step == settle_steps {
+            let poses = self.plan.iter().map(|q| [q[0], q[1], q[3]]);
+            if !self.follower.set_plan(poses) {
+                self.moving_since = Some(self.step);
+            }
+            self.anchor = (t, [x, y]);
+        }
+        if self.step >= settle_steps && self.step % control_every == 0 {
+            let c = self.follower.command(x, y, yaw);
+            let (v, wz) = self.limiter.step(c.v, c.w, CONTROL_PERIOD_S);
+            self.targets = self.p.skid.wheel_speeds(v, wz);
+            if self.moving_since.is_none() && (v.abs() > 1e-3 || wz.abs() > 1e-3) {
+                self.moving_since = Some(self.step);
+            }
+        }
+        if let Some(since) = self.moving_since {
+            let every = (SAMPLE_PERIOD_S / dt).round().max(1.0) as u64;
+            if (self.step - since) % every == 0 {
+                self.prediction.push(s.position);
+            }
+        }
+        let t_ns = ((self.step + 1) as f64 * dt * 1e9) as u64;
+        rover.step(t_ns, &self.targets);
+        self.step += 1;
+        self.counters.physics_steps += 1;
+        // The judgement.
+        if tilt > self.p.tip_over_deg {
+            return self.verdict_now(Outcome::TippedOver);
+        }
+        if !s.position.iter().all(|v| v.is_finite()) || s.position[2] < self.terrain.lo[2] - 1.0 {
+            return self.verdict_now(Outcome::NoGround);
+        }
+        if self.step > settle_steps && self.follower.done() {
+            let e = self.goal_error();
+            let outcome = if e <= self.p.goal_tolerance_m {
+                Outcome::Reached
+            } else {
+                Outcome::Missed
+            };
+            return self.verdict_now(outcome);
+        }
+        if (x - self.anchor.1[0]).hypot(y - self.anchor.1[1]) > self.p.stuck_progress_m {
+            self.anchor = (t, [x, y]);
+        } else if self.step > settle_steps && t - self.anchor.0 > self.p.stuck_after_s {
+            return self.verdict_now(Outcome::Stuck);
+        }
+        let driving_s = self.moving_since.map_or(0.0, |m| (self.step - m) as f64 * dt);
+        if t > self.p.settle_s + self.time_allowed_s || driving_s > self.time_allowed_s {
+            return self.verdict_now(Outcome::Timeout);
+        }
+        None
+    }
+
+    fn verdict_now(&mut self, outcome: Outcome) -> Option<Verdict> {
+        self.phase = self.finish(outcome);
+        self.verdict
+    }
+}

@@ -1,0 +1,93 @@
+//! The simulated world's ground: the keyframe clouds around the plan in a
+//! TSDF, meshed a tile at a time.
+
+use speleo_hal::world::{Mesh, Surface};
+use speleo_mapping::marching_cubes::MeshBuffers;
+use speleo_mapping::tsdf::{TsdfParams, TsdfVolume, Weighting};
+
+use crate::SimulatorParams;
+
+pub(crate) struct Terrain {
+    tsdf: TsdfVolume,
+    buffers: MeshBuffers,
+    /// The last tile's triangles, for rapier.
+    pub chunk: Mesh,
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+    tile_m: f64,
+    /// The axis the tiles are cut along (the region's longer one).
+    axis: usize,
+    pub tiles: usize,
+    pub triangles: usize,
+}
+
+impl Terrain {
+    pub fn new(p: &SimulatorParams) -> Result<Self, String> {
+        let tsdf = TsdfVolume::new(TsdfParams {
+            voxel_size_m: p.voxel_m,
+            truncation_voxels: 3.0,
+            max_blocks: p.max_blocks,
+            weighting: Weighting::Constant,
+            min_weight: 0.0,
+        })
+        .map_err(|e| e.to_string())?;
+        Ok(Terrain {
+            tsdf,
+            buffers: MeshBuffers::new(),
+            chunk: Mesh::default(),
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+            tile_m: p.tile_m,
+            axis: 0,
+            tiles: 0,
+            triangles: 0,
+        })
+    }
+
+    /// A new, empty world over the box `lo..hi`.
+    pub fn begin(&mut self, lo: [f64; 3], hi: [f64; 3]) {
+        self.tsdf.clear();
+        self.lo = lo;
+        self.hi = hi;
+        self.axis = if hi[0] - lo[0] >= hi[1] - lo[1] { 0 } else { 1 };
+        self.tiles = ((hi[self.axis] - lo[self.axis]) / self.tile_m).ceil().max(1.0) as usize;
+        self.triangles = 0;
+    }
+
+    /// Whether `p` lies in the box grown by `grow` in x and y.
+    pub fn near(&self, p: [f64; 3], grow: f64) -> bool {
+        (0..2).all(|k| p[k] >= self.lo[k] - grow && p[k] <= self.hi[k] + grow)
+    }
+
+    /// Integrate the points of `points` inside the box (with a voxel's
+    /// margin) seen from `origin`; the number integrated.
+    pub fn integrate(&mut self, origin: [f64; 3], points: &mut Vec<[f64; 3]>) -> u64 {
+        let m = 2.0 * self.tsdf.voxel_size();
+        let (lo, hi) = (self.lo, self.hi);
+        points.retain(|p| (0..3).all(|k| p[k] >= lo[k] - m && p[k] <= hi[k] + m));
+        self.tsdf.integrate(origin, points).integrated
+    }
+
+    /// Mesh tile `i` into `chunk` (rock: the simulator knows no better).
+    pub fn mesh_tile(&mut self, i: usize) {
+        let mut lo = self.lo;
+        let mut hi = self.hi;
+        lo[self.axis] = self.lo[self.axis] + i as f64 * self.tile_m;
+        hi[self.axis] = (lo[self.axis] + self.tile_m).min(self.hi[self.axis]);
+        self.tsdf.mesh_region(lo, hi, &mut self.buffers);
+        let m = &self.buffers.mesh;
+        self.chunk.vertices.clear();
+        self.chunk.triangles.clear();
+        self.chunk.surfaces.clear();
+        self.chunk.vertices.extend_from_slice(&m.vertices);
+        self.chunk.triangles.extend_from_slice(&m.triangles);
+        self.chunk
+            .surfaces
+            .extend(std::iter::repeat_n(Surface::Rock, m.triangles.len()));
+        self.triangles += m.triangles.len();
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.tsdf.stats().memory_bytes + self.buffers.memory_bytes()
+    }
+}
