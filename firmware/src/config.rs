@@ -10,9 +10,11 @@ use thiserror::Error;
 mod exploration;
 mod maps;
 mod planner;
+mod simulator;
 pub use exploration::ExplorationConfig;
 pub use maps::MapsConfig;
 pub use planner::PlannerConfig;
+pub use simulator::SimulatorConfig;
 
 #[derive(Debug, Error)]
 pub enum ConfigError {
@@ -48,6 +50,7 @@ pub struct Config {
     pub maps: MapsConfig,
     pub planner: PlannerConfig,
     pub exploration: ExplorationConfig,
+    pub simulator: SimulatorConfig,
     pub health: HealthConfig,
     pub record: RecordConfig,
     pub devices: DevicesConfig,
@@ -691,6 +694,7 @@ impl Config {
         self.maps.validate()?;
         self.planner.validate(self.maps.mls_resolution_m)?;
         self.exploration.validate()?;
+        self.simulator.validate()?;
         for (key, v, lo, hi, text) in [
             ("control.max_accel", c.max_accel, 0.01, 20.0, "0.01..=20"),
             ("control.max_decel", c.max_decel, 0.01, 20.0, "0.01..=20"),

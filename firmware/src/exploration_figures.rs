@@ -32,9 +32,12 @@ pub struct ExplorationFigures {
     pub distance_m: Option<f64>,
     pub collisions: Option<u64>,
     /// Goals planned to (candidates and points on the way home), those
-    /// with no path, and plans driven.
+    /// with no path, those whose plan the internal simulator passed and
+    /// refused, and plans driven.
     pub goals_attempted: u64,
     pub goals_unreachable: u64,
+    pub goals_validated: u64,
+    pub goals_rejected_by_sim: u64,
     pub plans_executed: u64,
     pub plans_completed: u64,
     /// Candidate scans, and those that found nothing.
@@ -63,6 +66,8 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         returned_home: matches!(e.mode(), Mode::Finished(_)),
         goals_attempted: e.counters.goals_attempted,
         goals_unreachable: e.counters.goals_unreachable,
+        goals_validated: e.counters.validated,
+        goals_rejected_by_sim: e.counters.rejected_by_sim,
         plans_executed: e.counters.plans_executed,
         plans_completed: c.plans_completed,
         scans: e.counters.scans,
@@ -134,4 +139,61 @@ pub fn coverage_fraction(
         })
         .count();
     covered as f64 / drivable.len() as f64
+}
+
+/// The report's `internal_sim` section: the plans driven in the internal
+/// simulator before the rover drove them, and how well the simulation
+/// predicted the real traverse (RMSE of the positions at equal times since
+/// the start of motion; the paper's was 0.419 m).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct InternalSimFigures {
+    pub validations: u64,
+    pub validated: u64,
+    pub rejected: u64,
+    /// Refusals by outcome.
+    pub rejected_by: BTreeMap<String, u64>,
+    /// Mission time from a plan to its verdict, ms.
+    pub validation_ms_median: Option<f64>,
+    pub validation_ms_max: Option<u32>,
+    /// Traverses compared with their prediction.
+    pub comparisons: usize,
+    pub prediction_rmse_m_median: Option<f64>,
+    pub prediction_rmse_m_max: Option<f64>,
+    pub physics_steps: u64,
+    pub triangles_max: u64,
+}
+
+fn median_f64(v: &[f64]) -> Option<f64> {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    match n {
+        0 => None,
+        _ if n % 2 == 1 => Some(s[n / 2]),
+        _ => Some((s[n / 2 - 1] + s[n / 2]) / 2.0),
+    }
+}
+
+pub fn internal_sim(e: &Exploration) -> Option<InternalSimFigures> {
+    e.sim.as_ref()?;
+    let c = &e.counters;
+    let ms: Vec<f64> = e.validation_ms.iter().map(|&v| v as f64).collect();
+    let names = ["timeout", "tipped_over", "stuck", "missed", "no_ground"];
+    Some(InternalSimFigures {
+        validations: c.validations,
+        validated: c.validated,
+        rejected: c.rejected_by_sim,
+        rejected_by: names
+            .iter()
+            .zip(c.sim_outcomes)
+            .map(|(n, k)| (n.to_string(), k))
+            .collect(),
+        validation_ms_median: median_f64(&ms),
+        validation_ms_max: e.validation_ms.iter().max().copied(),
+        comparisons: e.prediction_rmse_m.len(),
+        prediction_rmse_m_median: median_f64(&e.prediction_rmse_m),
+        prediction_rmse_m_max: e.prediction_rmse_m.iter().copied().reduce(f64::max),
+        physics_steps: c.sim_physics_steps,
+        triangles_max: c.sim_triangles_max,
+    })
 }

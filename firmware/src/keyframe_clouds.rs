@@ -112,6 +112,23 @@ impl KeyframeClouds {
             .map(|q| q.map(|c| c as f64 * LSB_M))
     }
 
+    /// Up to `n` of keyframe `k`'s points from point `from`, and the
+    /// cloud's size.
+    pub fn cloud_part(
+        &self,
+        k: usize,
+        from: usize,
+        n: usize,
+    ) -> (impl Iterator<Item = [f64; 3]> + '_, usize) {
+        let total = self.counts.get(k).copied().unwrap_or(0) as usize;
+        let start = k.min(self.capacity()) * self.per_keyframe;
+        let (a, b) = (from.min(total), from.saturating_add(n).min(total));
+        let part = self.points[start + a..start + b]
+            .iter()
+            .map(|q| q.map(|c| c as f64 * LSB_M));
+        (part, total)
+    }
+
     /// Replace the poses (map <- base, keyframe order); a pose for a
     /// keyframe whose cloud is missing is kept for when it arrives.
     pub fn set_poses(&mut self, poses: impl IntoIterator<Item = Pose>) {

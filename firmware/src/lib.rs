@@ -15,6 +15,7 @@ pub mod plot;
 pub mod record;
 pub mod report;
 pub mod schedule_table;
+pub mod sim_clouds;
 pub mod slam_figures;
 pub mod surface_maps;
 pub mod tasks;

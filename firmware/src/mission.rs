@@ -71,6 +71,7 @@ pub struct MissionResult {
     /// ground it mapped (map frame) with the map frame's origin and
     /// heading in the world (simulation), for the coverage figures.
     pub exploration: Option<crate::exploration_figures::ExplorationFigures>,
+    pub internal_sim: Option<crate::exploration_figures::InternalSimFigures>,
     pub explored: Option<speleo_traversability::TravMap>,
     /// Where the exploration started (map frame).
     pub exploration_home: Option<[f64; 3]>,
@@ -209,6 +210,38 @@ fn follower(cfg: &Config) -> PurePursuit {
     PurePursuit::new(follower_params(cfg), path, cfg.control.looped)
 }
 
+/// The internal simulator: the simulated rover's build, the control
+/// task's follower and limits, `[simulator]`'s world and judgement.
+fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
+    let s = &cfg.simulator;
+    let c = &cfg.control;
+    let r = &cfg.rover;
+    speleo_simulator::SimulatorParams {
+        physics: cfg.sim.rover.clone(),
+        follower: follower_params(cfg),
+        limits: AccelLimits {
+            max_accel: c.max_accel,
+            max_decel: c.max_decel,
+            max_yaw_accel: c.max_yaw_accel,
+        },
+        skid: SkidSteer {
+            wheel_radius_m: r.wheel_radius_m,
+            track_width_m: r.track_width_m,
+            skid_factor: r.skid_factor,
+            max_wheel_speed: r.max_wheel_speed,
+        },
+        voxel_m: s.voxel_m,
+        max_blocks: s.max_blocks,
+        margin_m: s.margin_m,
+        dt_s: s.dt_s,
+        goal_tolerance_m: s.goal_tolerance_m,
+        tip_over_deg: s.tip_over_deg,
+        stuck_after_s: s.stuck_after_s,
+        base_height_m: base_height_m(cfg),
+        ..speleo_simulator::SimulatorParams::default()
+    }
+}
+
 fn follower_params(cfg: &Config) -> FollowerParams {
     FollowerParams {
         lookahead_m: cfg.control.lookahead_m,
@@ -275,12 +308,18 @@ pub fn run<C: FrameClock>(
     let mut t_plan = build_planner(cfg, planner_on)?;
     if planner_on && cfg.exploration.enabled {
         let e = &cfg.exploration;
-        t_plan = t_plan.with_exploration(crate::tasks::exploration::Exploration::new(
+        let mut ex = crate::tasks::exploration::Exploration::new(
             e.explorer_params(),
             e.candidate_params(),
             e.target,
             e.settle_s,
-        ));
+        );
+        if cfg.simulator.enabled {
+            let sim = speleo_simulator::InternalSim::new(simulator_params(cfg))
+                .map_err(MissionError::Planner)?;
+            ex = ex.with_simulator(sim, mount_pose(cfg));
+        }
+        t_plan = t_plan.with_exploration(ex);
     }
     let c = &cfg.control;
     let mut t_control = control::ControlTask::new(
@@ -436,7 +475,7 @@ pub fn run<C: FrameClock>(
     // apart: they run within a memory budget instead.
     let budgeted = |slot: usize| {
         slot > 0
-            && crate::schedule_table::ALLOCATING_TASKS
+            && crate::schedule_table::allocating_tasks(cfg)
                 .contains(&m_names.get(slot - 1).map_or("", String::as_str))
     };
     let allocations_after_init: u64 = (0..=ntasks)
@@ -531,6 +570,9 @@ pub fn run<C: FrameClock>(
         exploration,
         explored,
         exploration_home: t_plan.exploration().map(|e| e.explorer.home()),
+        internal_sim: t_plan
+            .exploration()
+            .and_then(crate::exploration_figures::internal_sim),
         world_from_map: track.odom_origin,
         frames,
         sim_time_s: frames as f64 * minor_frame_us as f64 * 1e-6,

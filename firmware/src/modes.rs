@@ -233,6 +233,17 @@ fn print_summary(r: &MissionResult) {
             e.collisions.map_or("-".to_string(), |c| c.to_string()),
         );
     }
+    if let Some(s) = &r.internal_sim {
+        eprintln!(
+            "internal simulation: {} plans driven, {} passed, {} refused, prediction RMSE median {} over {} traverses",
+            s.validations,
+            s.validated,
+            s.rejected,
+            s.prediction_rmse_m_median
+                .map_or("-".to_string(), |v| format!("{v:.3} m")),
+            s.comparisons
+        );
+    }
     if let Some(p) = &r.planner {
         let ms = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.0} ms"));
         eprintln!(

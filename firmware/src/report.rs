@@ -27,6 +27,8 @@ pub struct Report<'a> {
     pub planner: Option<&'a crate::planner_figures::PlannerFigures>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub exploration: Option<&'a crate::exploration_figures::ExplorationFigures>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub internal_sim: Option<&'a crate::exploration_figures::InternalSimFigures>,
 }
 
 #[derive(Serialize)]
@@ -109,6 +111,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         maps: r.maps_figures.as_ref(),
         planner: r.planner.as_ref(),
         exploration: r.exploration.as_ref(),
+        internal_sim: r.internal_sim.as_ref(),
     }
 }
 

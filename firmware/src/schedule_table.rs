@@ -6,9 +6,17 @@ use speleo_scheduler::{AnytimeSpec, OverrunPolicy, RateGroup, Schedule, TaskSpec
 
 use crate::config::{Config, ConfigError};
 
-/// Tasks that call allocating crates (the solver's sparse analysis) and run
-/// within a memory budget; every other task allocates nothing after start-up.
-pub const ALLOCATING_TASKS: [&str; 1] = ["slam"];
+/// Tasks that call allocating crates and run within a memory budget:
+/// slam (the solver's sparse analysis) always; the planner while the
+/// internal simulator builds and steps its rapier world. Every other task
+/// allocates nothing after start-up.
+pub fn allocating_tasks(cfg: &Config) -> &'static [&'static str] {
+    if cfg.exploration.enabled && cfg.simulator.enabled {
+        &["slam", "planner"]
+    } else {
+        &["slam"]
+    }
+}
 
 /// Task names in execution order.
 pub const TASKS: [&str; 12] = [

@@ -75,7 +75,11 @@ impl PlanFollower {
         loop {
             // Backward: pure pursuit for the rover turned about.
             let reverse = self.reversing();
-            let heading = if reverse { yaw + core::f64::consts::PI } else { yaw };
+            let heading = if reverse {
+                yaw + core::f64::consts::PI
+            } else {
+                yaw
+            };
             let mut t = self.follower.command(x, y, heading);
             if reverse {
                 t.v = -t.v;

@@ -9,6 +9,10 @@ use speleo_traversability::{TravClass, TravMap, Window};
 
 use crate::coverage::CoverageMap;
 
+/// Cells just inside the window's margin whose drivable patches are
+/// candidates.
+const BORDER_BAND: i32 = 2;
+
 /// Candidates kept, best first: the planner tries them in turn.
 pub const MAX_CANDIDATES: usize = 8;
 
@@ -141,16 +145,28 @@ impl CandidateScan {
         i: u32,
     ) -> Option<Candidate> {
         let n = trav.node(i)?;
-        if !matches!(n.class, TravClass::Frontier | TravClass::Explorable) {
-            return None;
-        }
         let res = trav.resolution();
-        if let Some(w) = self.window {
-            let m = (self.p.border_margin_m / res).ceil() as i32;
-            if n.ix < w.min.0 + m || n.iy < w.min.1 + m || n.ix > w.max.0 - m || n.iy > w.max.1 - m
-            {
-                return None;
+        // Within the margin of the window's border the graph stops but the
+        // map goes on: no frontier there is real. Just inside the margin,
+        // any drivable patch is a candidate: the map beyond the window is
+        // unexplored as far as the rover knows (a long tube is seen
+        // farther than the window reaches).
+        let at_border = match self.window {
+            Some(w) => {
+                let m = (self.p.border_margin_m / res).ceil() as i32;
+                let inside = |lo: i32, v: i32, hi: i32| v - lo >= m && hi - v >= m;
+                if !inside(w.min.0, n.ix, w.max.0) || !inside(w.min.1, n.iy, w.max.1) {
+                    return None;
+                }
+                let edge =
+                    |lo: i32, v: i32, hi: i32| v - lo < m + BORDER_BAND || hi - v < m + BORDER_BAND;
+                edge(w.min.0, n.ix, w.max.0) || edge(w.min.1, n.iy, w.max.1)
             }
+            None => false,
+        };
+        let border_class = matches!(n.class, TravClass::Frontier | TravClass::Explorable);
+        if !(border_class || (at_border && n.class.is_drivable())) {
+            return None;
         }
         let p = trav.position(n);
         let d = (p[0] - self.rover[0]).hypot(p[1] - self.rover[1]);

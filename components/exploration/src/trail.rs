@@ -6,6 +6,8 @@
 #[derive(Clone, Debug)]
 pub struct Trail {
     spacing_m: f64,
+    /// The spacing asked for (thinning doubles `spacing_m`).
+    base_spacing_m: f64,
     points: Vec<[f64; 3]>,
     capacity: usize,
 }
@@ -15,6 +17,7 @@ impl Trail {
     pub fn new(capacity: usize, spacing_m: f64) -> Self {
         Trail {
             spacing_m,
+            base_spacing_m: spacing_m,
             points: Vec::with_capacity(capacity),
             capacity,
         }
@@ -23,6 +26,7 @@ impl Trail {
     /// Forget the track (the spacing set at construction stays).
     pub fn clear(&mut self) {
         self.points.clear();
+        self.spacing_m = self.base_spacing_m;
     }
 
     pub fn points(&self) -> &[[f64; 3]] {
@@ -118,6 +122,6 @@ mod tests {
         }
         assert!(t.points().len() <= 8);
         assert_eq!(t.points()[0], [0.0, 0.0, 0.0]);
-        assert!(t.points().last().unwrap()[0] >= 32.0);
+        assert!(t.points().last().is_some_and(|p| p[0] >= 32.0));
     }
 }

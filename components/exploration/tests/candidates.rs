@@ -82,12 +82,19 @@ fn covered_and_rejected_patches_are_not_candidates() {
 }
 
 #[test]
-fn nothing_at_the_window_border_is_a_candidate() {
+fn a_window_that_cuts_the_corridor_gives_candidates_just_inside_its_border() {
     let t = corridor();
     let cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
     let w = Window::around(0.0, 0.0, 8.0, 0.1);
     let mut s = CandidateScan::new(CandidateParams::default());
     s.begin([0.0, 0.0], None, Some(w));
     while !s.step(&t, &cov, &[], 100) {}
-    assert!(s.best().iter().all(|c| c.position[0] < 7.0));
+    // Nothing within the 1 m margin of the border at x = 8 m ...
+    assert!(
+        s.best().iter().all(|c| c.position[0] < 7.1),
+        "{:?}",
+        s.best()
+    );
+    // ... and the corridor beyond the window is where to go.
+    assert!(s.best()[0].position[0] > 6.7, "{:?}", s.best()[0]);
 }

@@ -66,7 +66,7 @@ impl Default for SimulatorParams {
             cloud_range_m: 15.0,
             tile_m: 0.5,
             dt_s: 0.002,
-            settle_s: 0.3,
+            settle_s: 0.5,
             goal_tolerance_m: 0.5,
             time_factor: 2.0,
             time_extra_s: 10.0,

@@ -60,9 +60,14 @@ pub struct SimCounters {
 enum Phase {
     Idle,
     /// Integrating keyframe `k` from point `from`.
-    Integrate { k: usize, from: usize },
+    Integrate {
+        k: usize,
+        from: usize,
+    },
     /// Meshing tile `tile` into the world.
-    Ground { tile: usize },
+    Ground {
+        tile: usize,
+    },
     Drive,
     Done,
 }
@@ -72,6 +77,15 @@ const POINTS_PER_UNIT: usize = 32;
 const UNITS_PER_STEP: usize = 4;
 /// A tile's meshing and its collider count this many units.
 const UNITS_PER_TILE: usize = 16;
+/// The ribbon of ground along the plan lies this far under the planner's
+/// ground, m.
+const RIBBON_DROP_M: f32 = 0.03;
+/// Turning this much on the spot is progress, rad.
+const STUCK_TURN_RAD: f64 = 0.3;
+/// The rover is put down this far over its estimated ground, m.
+const DROP_M: f64 = 0.08;
+/// Half the side of the ground pad under the rover at the start, m.
+const FOOTPRINT_PAD_M: f32 = 1.0;
 /// The follower runs at 50 Hz, as the control task does.
 const CONTROL_PERIOD_S: f64 = 0.02;
 const SAMPLE_PERIOD_S: f64 = 0.1;
@@ -92,8 +106,9 @@ pub struct InternalSim {
     /// Steps since motion began, once it has.
     moving_since: Option<u64>,
     time_allowed_s: f64,
-    /// Stuck detection: when and where progress was last seen.
-    anchor: (f64, [f64; 2]),
+    /// Stuck detection: when, where and at which heading progress was
+    /// last seen (turning on the spot is progress too).
+    anchor: (f64, [f64; 2], f64),
     prediction: Prediction,
     scratch: Vec<[f64; 3]>,
     verdict: Option<Verdict>,
@@ -115,7 +130,7 @@ impl InternalSim {
             targets: [0.0; 4],
             moving_since: None,
             time_allowed_s: 0.0,
-            anchor: (0.0, [0.0; 2]),
+            anchor: (0.0, [0.0; 2], 0.0),
             prediction: Prediction::with_capacity(),
             scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
             verdict: None,
@@ -156,8 +171,8 @@ impl InternalSim {
             .windows(2)
             .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
             .sum();
-        self.time_allowed_s =
-            self.p.time_factor * length / self.p.follower.cruise_speed.max(0.05) + self.p.time_extra_s;
+        self.time_allowed_s = self.p.time_factor * length / self.p.follower.cruise_speed.max(0.05)
+            + self.p.time_extra_s;
         self.rover = None;
         self.prediction.clear();
         self.verdict = None;
@@ -238,9 +253,31 @@ impl InternalSim {
 
     fn begin_ground(&mut self) -> Phase {
         let [x, y, z, yaw] = self.start;
-        let ground = [x, y, z - self.p.base_height_m, yaw];
+        // Dropped from a little higher than the estimate: legs started
+        // inside a floor the TSDF puts a few centimetres higher than the
+        // estimate would be thrown out of it.
+        let ground = [x, y, z - self.p.base_height_m + DROP_M, yaw];
         match PhysicsRover::new(&self.p.physics, &Mesh::default(), ground, self.p.dt_s) {
-            Ok(r) => {
+            Ok(mut r) => {
+                // The LiDAR cannot see the ground under and around the
+                // rover (its lowest beam meets the ground about a metre
+                // away), but the rover stands there: a pad of ground under
+                // it fills that hole.
+                let h = FOOTPRINT_PAD_M;
+                let z = (ground[2] - DROP_M) as f32;
+                let (x, y) = (x as f32, y as f32);
+                let pad = Mesh {
+                    vertices: vec![
+                        [x - h, y - h, z],
+                        [x + h, y - h, z],
+                        [x + h, y + h, z],
+                        [x - h, y + h, z],
+                    ],
+                    triangles: vec![[0, 1, 2], [0, 2, 3]],
+                    surfaces: vec![Default::default(); 2],
+                };
+                let _ = r.add_ground(&pad);
+                let _ = r.add_ground(&self.ribbon());
                 self.rover = Some(Box::new(r));
                 Phase::Ground { tile: 0 }
             }
@@ -248,9 +285,46 @@ impl InternalSim {
         }
     }
 
+    /// A ribbon of ground along the plan, a little under the height the
+    /// planner found at each pose: the LiDAR's rings leave gaps in the
+    /// ground between them that the planner bridges and the TSDF does not
+    /// fill, and the rover's legs would drop into them. Each pose gets its
+    /// own flat piece, so a step in the plan stays a step; where the TSDF
+    /// has ground, it lies above the ribbon and carries the rover.
+    fn ribbon(&self) -> Mesh {
+        let mut m = Mesh::default();
+        let half_w = (0.5 * self.p.physics.track_width_m + self.p.physics.wheel_radius_m) as f32;
+        for (i, q) in self.plan.iter().enumerate() {
+            let next = self.plan.get(i + 1).unwrap_or(q);
+            let len = ((next[0] - q[0]).hypot(next[1] - q[1]) as f32).max(0.1);
+            let (s, c) = (q[3] as f32).sin_cos();
+            // Along the way to the next pose (its direction, or the heading).
+            let (dx, dy) = if len > 0.1 {
+                ((next[0] - q[0]) as f32 / len, (next[1] - q[1]) as f32 / len)
+            } else {
+                (c, s)
+            };
+            let (px, py) = (-dy, dx);
+            let (x, y, z) = (q[0] as f32, q[1] as f32, q[2] as f32 - RIBBON_DROP_M);
+            let (a0, a1) = (-0.05, len + 0.05);
+            let base = m.vertices.len() as u32;
+            for (u, v) in [(a0, -half_w), (a1, -half_w), (a1, half_w), (a0, half_w)] {
+                m.vertices
+                    .push([x + u * dx + v * px, y + u * dy + v * py, z]);
+            }
+            m.triangles.push([base, base + 1, base + 2]);
+            m.triangles.push([base, base + 2, base + 3]);
+            m.surfaces.extend([speleo_hal::world::Surface::Rock; 2]);
+        }
+        m
+    }
+
     fn ground(&mut self, tile: usize) -> Phase {
         if tile >= self.terrain.tiles {
-            self.counters.triangles_max = self.counters.triangles_max.max(self.terrain.triangles as u64);
+            self.counters.triangles_max = self
+                .counters
+                .triangles_max
+                .max(self.terrain.triangles as u64);
             if self.terrain.triangles == 0 {
                 return self.finish(Outcome::NoGround);
             }
@@ -270,7 +344,9 @@ impl InternalSim {
         let goal_error_m = self.goal_error();
         self.verdict = Some(Verdict {
             outcome,
-            drive_s: self.moving_since.map_or(0.0, |s| (self.step - s) as f64 * self.p.dt_s),
+            drive_s: self
+                .moving_since
+                .map_or(0.0, |s| (self.step - s) as f64 * self.p.dt_s),
             goal_error_m,
         });
         Phase::Done
@@ -302,16 +378,19 @@ impl InternalSim {
         let s = *rover.state();
         let [w, qx, qy, qz] = s.orientation;
         let yaw = (2.0 * (w * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
-        let tilt = (1.0 - 2.0 * (qx * qx + qy * qy)).clamp(-1.0, 1.0).acos().to_degrees();
+        let tilt = (1.0 - 2.0 * (qx * qx + qy * qy))
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
         let (x, y) = (s.position[0], s.position[1]);
         if self.step == settle_steps {
             let poses = self.plan.iter().map(|q| [q[0], q[1], q[3]]);
             if !self.follower.set_plan(poses) {
                 self.moving_since = Some(self.step);
             }
-            self.anchor = (t, [x, y]);
+            self.anchor = (t, [x, y], yaw);
         }
-        if self.step >= settle_steps && self.step % control_every == 0 {
+        if self.step >= settle_steps && self.step.is_multiple_of(control_every) {
             let c = self.follower.command(x, y, yaw);
             let (v, wz) = self.limiter.step(c.v, c.w, CONTROL_PERIOD_S);
             self.targets = self.p.skid.wheel_speeds(v, wz);
@@ -321,7 +400,7 @@ impl InternalSim {
         }
         if let Some(since) = self.moving_since {
             let every = (SAMPLE_PERIOD_S / dt).round().max(1.0) as u64;
-            if (self.step - since) % every == 0 {
+            if (self.step - since).is_multiple_of(every) {
                 self.prediction.push(s.position);
             }
         }
@@ -345,12 +424,18 @@ impl InternalSim {
             };
             return self.verdict_now(outcome);
         }
-        if (x - self.anchor.1[0]).hypot(y - self.anchor.1[1]) > self.p.stuck_progress_m {
-            self.anchor = (t, [x, y]);
+        let turned = (yaw - self.anchor.2 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        if (x - self.anchor.1[0]).hypot(y - self.anchor.1[1]) > self.p.stuck_progress_m
+            || turned.abs() > STUCK_TURN_RAD
+        {
+            self.anchor = (t, [x, y], yaw);
         } else if self.step > settle_steps && t - self.anchor.0 > self.p.stuck_after_s {
             return self.verdict_now(Outcome::Stuck);
         }
-        let driving_s = self.moving_since.map_or(0.0, |m| (self.step - m) as f64 * dt);
+        let driving_s = self
+            .moving_since
+            .map_or(0.0, |m| (self.step - m) as f64 * dt);
         if t > self.p.settle_s + self.time_allowed_s || driving_s > self.time_allowed_s {
             return self.verdict_now(Outcome::Timeout);
         }

@@ -50,7 +50,9 @@ impl Terrain {
         self.lo = lo;
         self.hi = hi;
         self.axis = if hi[0] - lo[0] >= hi[1] - lo[1] { 0 } else { 1 };
-        self.tiles = ((hi[self.axis] - lo[self.axis]) / self.tile_m).ceil().max(1.0) as usize;
+        self.tiles = ((hi[self.axis] - lo[self.axis]) / self.tile_m)
+            .ceil()
+            .max(1.0) as usize;
         self.triangles = 0;
     }
 

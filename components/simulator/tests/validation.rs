@@ -57,11 +57,12 @@ impl CloudSource for Scans {
 }
 
 fn plan(z: impl Fn(f64) -> f64) -> Vec<[f64; 4]> {
-    (0..=50).map(|i| {
-        let x = 0.1 * i as f64;
-        [x, 0.0, z(x), 0.0]
-    })
-    .collect()
+    (0..=50)
+        .map(|i| {
+            let x = 0.1 * i as f64;
+            [x, 0.0, z(x), 0.0]
+        })
+        .collect()
 }
 
 fn validate(z: impl Fn(f64) -> f64 + Copy) -> (Outcome, Vec<[f64; 3]>, f64) {
@@ -106,7 +107,10 @@ fn a_ledge_the_rover_cannot_climb_is_refused() {
     let ledge = |x: f64| if x < 2.5 { 0.0 } else { 0.45 };
     let (outcome, prediction, err) = validate(ledge);
     assert!(
-        matches!(outcome, Outcome::Stuck | Outcome::Timeout | Outcome::TippedOver),
+        matches!(
+            outcome,
+            Outcome::Stuck | Outcome::Timeout | Outcome::TippedOver
+        ),
         "{outcome:?} {err}"
     );
     eprintln!("ledge: {outcome:?}");

@@ -87,7 +87,10 @@ impl ControlTask {
         self.stop = 0;
         self.monitor.reset();
         self.counters.plans_followed += 1;
-        let poses = plan.poses.iter().map(|p| [p[0] as f64, p[1] as f64, p[3] as f64]);
+        let poses = plan
+            .poses
+            .iter()
+            .map(|p| [p[0] as f64, p[1] as f64, p[3] as f64]);
         if !plans.set_plan(poses) {
             // Already there.
             self.counters.plans_completed += 1;
@@ -106,7 +109,9 @@ impl ControlTask {
     }
 
     fn done(&self) -> bool {
-        self.plans.as_ref().map_or(self.follower.done(), PlanFollower::done)
+        self.plans
+            .as_ref()
+            .map_or(self.follower.done(), PlanFollower::done)
     }
 }
 

@@ -5,6 +5,8 @@
 //! goals come from the rover's track home instead.
 
 use speleo_exploration::{CandidateParams, CandidateScan, Explorer, ExplorerParams, Mode};
+use speleo_simulator::{rmse_at_equal_times, InternalSim, Outcome, PREDICTION_POINTS};
+use speleo_slam::lie::Pose;
 
 use crate::bus::{Bus, ExplorationPhase, ExplorationStatus};
 
@@ -19,6 +21,28 @@ pub struct ExplorationCounters {
     pub goals_unreachable: u64,
     /// Plans handed to the control task.
     pub plans_executed: u64,
+    /// Plans driven in the internal simulator, those it passed and those
+    /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground).
+    pub validations: u64,
+    pub validated: u64,
+    pub rejected_by_sim: u64,
+    pub sim_outcomes: [u64; 5],
+    pub sim_physics_steps: u64,
+    pub sim_triangles_max: u64,
+}
+
+/// Results kept for the report's medians.
+const HISTORY: usize = 8192;
+
+/// The executed track of a validated plan, sampled like the prediction.
+struct Comparison {
+    query: u64,
+    predicted: Vec<[f64; 3]>,
+    executed: Vec<[f64; 3]>,
+    /// Motion began at this time; the next sample is due then.
+    moving_since: Option<u64>,
+    next_sample_ns: u64,
+    active: bool,
 }
 
 pub struct Exploration {
@@ -34,6 +58,17 @@ pub struct Exploration {
     idle_since: Option<u64>,
     last_observed: [f64; 2],
     pub counters: ExplorationCounters,
+    /// The internal simulator, when plans are validated first; the LiDAR
+    /// mount (base <- sensor) for the keyframe clouds.
+    pub sim: Option<InternalSim>,
+    pub mount: Pose,
+    /// When the validation under way began.
+    pub validation_began_ns: u64,
+    comparison: Comparison,
+    /// Per validation: mission time it took, ms; per compared traverse:
+    /// the RMSE between predicted and executed positions, m.
+    pub validation_ms: Vec<u32>,
+    pub prediction_rmse_m: Vec<f64>,
 }
 
 impl Exploration {
@@ -54,6 +89,100 @@ impl Exploration {
             idle_since: None,
             last_observed: [f64::INFINITY; 2],
             counters: ExplorationCounters::default(),
+            sim: None,
+            mount: Pose::identity(),
+            validation_began_ns: 0,
+            comparison: Comparison {
+                query: 0,
+                predicted: Vec::with_capacity(PREDICTION_POINTS),
+                executed: Vec::with_capacity(PREDICTION_POINTS),
+                moving_since: None,
+                next_sample_ns: 0,
+                active: false,
+            },
+            validation_ms: Vec::with_capacity(HISTORY),
+            prediction_rmse_m: Vec::with_capacity(HISTORY),
+        }
+    }
+
+    /// Validate every plan in `sim` first, its world made of the keyframe
+    /// clouds seen through `mount`.
+    pub fn with_simulator(mut self, sim: InternalSim, mount: Pose) -> Self {
+        self.sim = Some(sim);
+        self.mount = mount;
+        self
+    }
+
+    /// The simulator's verdict on the plan under validation, at `now`.
+    pub fn record_verdict(&mut self, outcome: Outcome, now: u64) {
+        self.counters.validations += 1;
+        if self.validation_ms.len() < HISTORY {
+            let ms = now.saturating_sub(self.validation_began_ns) / 1_000_000;
+            self.validation_ms.push(ms.min(u32::MAX as u64) as u32);
+        }
+        if let Some(sim) = &self.sim {
+            self.counters.sim_physics_steps = sim.counters.physics_steps;
+            self.counters.sim_triangles_max = sim.counters.triangles_max;
+        }
+        let k = match outcome {
+            Outcome::Reached => {
+                self.counters.validated += 1;
+                return;
+            }
+            Outcome::Timeout => 0,
+            Outcome::TippedOver => 1,
+            Outcome::Stuck => 2,
+            Outcome::Missed => 3,
+            Outcome::NoGround => 4,
+        };
+        self.counters.rejected_by_sim += 1;
+        self.counters.sim_outcomes[k] += 1;
+    }
+
+    /// Plan `query`, validated, is handed over: its real track will be
+    /// compared with the prediction.
+    pub fn compare_next(&mut self, query: u64) {
+        let Some(sim) = &self.sim else { return };
+        let c = &mut self.comparison;
+        c.query = query;
+        c.predicted.clear();
+        c.predicted.extend_from_slice(sim.prediction());
+        c.executed.clear();
+        c.moving_since = None;
+        c.active = true;
+    }
+
+    /// Sample the real track of the plan being compared; at its end, the
+    /// RMSE against the prediction.
+    fn follow_comparison(&mut self, bus: &Bus, now: u64) {
+        let c = &mut self.comparison;
+        if !c.active {
+            return;
+        }
+        let (Some(cmd), Some(pose)) = (bus.command.get(), bus.slam.get()) else {
+            return;
+        };
+        let cmd = cmd.value;
+        if cmd.plan != c.query {
+            return;
+        }
+        if c.moving_since.is_none() && (cmd.speed.abs() > 1e-3 || cmd.yaw_rate.abs() > 1e-3) {
+            c.moving_since = Some(now);
+            c.next_sample_ns = now;
+        }
+        if c.moving_since.is_some() && now >= c.next_sample_ns {
+            if c.executed.len() < PREDICTION_POINTS {
+                c.executed.push(pose.value.position);
+            }
+            c.next_sample_ns += 100_000_000;
+        }
+        if cmd.done {
+            c.active = false;
+            if let Some(e) = rmse_at_equal_times(&c.predicted, &c.executed) {
+                if self.prediction_rmse_m.len() < HISTORY {
+                    self.prediction_rmse_m.push(e);
+                }
+            }
         }
     }
 
@@ -63,6 +192,7 @@ impl Exploration {
 
     /// Every frame: follow the rover's pose; publish the state.
     pub fn observe(&mut self, bus: &mut Bus, now: u64) {
+        self.follow_comparison(bus, now);
         if let Some(p) = bus.slam.get().map(|p| p.value.position) {
             if !self.homed {
                 self.explorer.restart(p);

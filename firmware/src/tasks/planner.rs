@@ -101,6 +101,8 @@ enum Phase {
     Candidates,
     Prepare,
     Search,
+    /// Driving the plan in the internal simulator.
+    Validate,
 }
 
 /// The query under way.
@@ -128,6 +130,8 @@ struct Query {
     cost: u32,
     /// Expansions when the first plan was found.
     solved_at: u64,
+    /// The plan under validation: its (cost, bound) and optimality.
+    best: ((u32, u32), bool),
 }
 
 pub struct PlannerTask {
@@ -538,9 +542,10 @@ impl PlannerTask {
                         if self.explore.is_some() {
                             // The best plan so far is the one to drive.
                             let best = (self.query.cost, self.query.eps_milli);
-                            self.publish(bus, now, best, false, true);
+                            self.plan_found(bus, now, best, false);
+                        } else {
+                            self.end_query();
                         }
-                        self.end_query();
                     } else {
                         self.goal_failed();
                     }
@@ -563,12 +568,75 @@ impl PlannerTask {
                 if self.optimal_ms.len() < HISTORY {
                     self.optimal_ms.push(ms);
                 }
-                let execute = self.explore.is_some();
-                self.publish(bus, now, (cost, 1000), true, execute);
-                self.end_query();
+                if self.explore.is_some() {
+                    self.plan_found(bus, now, (cost, 1000), true);
+                } else {
+                    self.publish(bus, now, (cost, 1000), true, false);
+                    self.end_query();
+                }
             }
             Progress::NoPath | Progress::Idle => self.goal_failed(),
         }
+    }
+
+    /// Exploring, the query's plan is final: drive it, or first drive it in
+    /// the internal simulator.
+    fn plan_found(&mut self, bus: &mut Bus, now: u64, best: (u32, u32), optimal: bool) {
+        let validate = self.explore.as_ref().is_some_and(|e| e.sim.is_some());
+        // Shown while it is validated; marked to be driven otherwise.
+        self.publish(bus, now, best, optimal, !validate);
+        let Some(ex) = self.explore.as_deref_mut() else {
+            return;
+        };
+        let (Some(sim), Some(plan)) = (&mut ex.sim, bus.plan.get()) else {
+            self.end_query();
+            return;
+        };
+        let [x, y, z] = self.query.rover;
+        let poses = plan
+            .value
+            .poses
+            .iter()
+            .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64, p[3] as f64]);
+        sim.begin([x, y, z, self.query.yaw], poses);
+        ex.validation_began_ns = now;
+        self.query.best = (best, optimal);
+        self.phase = Phase::Validate;
+    }
+
+    /// A slice of the internal simulation; at its verdict, the plan is
+    /// driven or the next goal is tried.
+    fn validate(&mut self, bus: &mut Bus, now: u64, units: usize) {
+        let Some(ex) = self.explore.as_deref_mut() else {
+            self.end_query();
+            return;
+        };
+        let Some(sim) = &mut ex.sim else {
+            self.end_query();
+            return;
+        };
+        let clouds = crate::sim_clouds::MapClouds {
+            clouds: &bus.keyframe_clouds,
+            mount: &ex.mount,
+        };
+        let Some(v) = sim.step(&clouds, units) else {
+            return;
+        };
+        ex.record_verdict(v.outcome, now);
+        if v.success() {
+            let (best, optimal) = self.query.best;
+            self.publish(bus, now, best, optimal, true);
+            if let Some(ex) = self.explore.as_deref_mut() {
+                ex.compare_next(ex.executing);
+            }
+            self.end_query();
+            return;
+        }
+        let at = self.query.order[self.query.tried].1;
+        if ex.mode() == Mode::Exploring {
+            ex.explorer.reject([at[0], at[1]]);
+        }
+        self.phase = self.try_goal(self.query.tried + 1);
     }
 
     /// A plan exists: the first one's latency is kept.
@@ -639,6 +707,7 @@ impl Task<Bus> for PlannerTask {
                 }
             }
             Phase::Search => self.search_step(bus, cx.time_ns, units),
+            Phase::Validate => self.validate(bus, cx.time_ns, units as usize),
         }
         if self.phase == Phase::Idle {
             StepResult::Idle

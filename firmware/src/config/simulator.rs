@@ -1,0 +1,76 @@
+//! `[simulator]`: the internal simulator that drives every exploration
+//! plan on the rover's own map before the rover drives it.
+
+use serde::{Deserialize, Serialize};
+
+use super::{range, ConfigError};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimulatorConfig {
+    /// Validate each exploration plan in simulation first. Off by default
+    /// for now: on the simulated tube it refuses most plans that the rover
+    /// then drives without trouble (see the simulator's README).
+    pub enabled: bool,
+    /// TSDF voxel side, m, and the most 8^3-voxel blocks (4 KiB each).
+    pub voxel_m: f64,
+    pub max_blocks: usize,
+    /// The simulated world is the box around the plan grown by this, m.
+    pub margin_m: f64,
+    /// Physics step, s.
+    pub dt_s: f64,
+    /// The goal is reached within this distance, m.
+    pub goal_tolerance_m: f64,
+    /// A tilt over this is a tip-over, deg.
+    pub tip_over_deg: f64,
+    /// Commanded this long without 0.1 m of progress: stuck, s.
+    pub stuck_after_s: f64,
+}
+
+impl Default for SimulatorConfig {
+    fn default() -> Self {
+        let p = speleo_simulator::SimulatorParams::default();
+        SimulatorConfig {
+            enabled: false,
+            voxel_m: p.voxel_m,
+            max_blocks: p.max_blocks,
+            margin_m: p.margin_m,
+            dt_s: p.dt_s,
+            goal_tolerance_m: p.goal_tolerance_m,
+            tip_over_deg: p.tip_over_deg,
+            stuck_after_s: p.stuck_after_s,
+        }
+    }
+}
+
+impl SimulatorConfig {
+    pub(super) fn validate(&self) -> Result<(), ConfigError> {
+        let k = |s: &str| format!("simulator.{s}");
+        range(&k("voxel_m"), self.voxel_m, 0.01, 0.5, "0.01..=0.5")?;
+        range(
+            &k("max_blocks"),
+            self.max_blocks,
+            64,
+            1 << 20,
+            "64..=1048576",
+        )?;
+        range(&k("margin_m"), self.margin_m, 0.5, 20.0, "0.5..=20")?;
+        range(&k("dt_s"), self.dt_s, 0.0005, 0.01, "0.0005..=0.01")?;
+        range(
+            &k("goal_tolerance_m"),
+            self.goal_tolerance_m,
+            0.05,
+            5.0,
+            "0.05..=5",
+        )?;
+        range(&k("tip_over_deg"), self.tip_over_deg, 5.0, 90.0, "5..=90")?;
+        range(
+            &k("stuck_after_s"),
+            self.stuck_after_s,
+            0.5,
+            120.0,
+            "0.5..=120",
+        )?;
+        Ok(())
+    }
+}

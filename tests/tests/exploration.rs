@@ -1,0 +1,53 @@
+//! The autonomous mission end to end: the rover explores the 30 m
+//! `short-tube` on its own and comes home. About 330 s of mission time: a
+//! few minutes in a release build, far longer in the debug test build, so
+//! it is ignored there and run with
+//! `cargo test --release -p speleo-tests --test exploration -- --ignored`.
+
+use speleo_firmware::cli::{Outputs, SimArgs};
+use speleo_firmware::modes;
+
+#[test]
+#[ignore = "a whole exploration: run in release (see the module documentation)"]
+fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let config = dir.path().join("explore.toml");
+    let report = dir.path().join("r.json");
+    let plot = dir.path().join("r.png");
+    std::fs::write(&config, "[exploration]\nenabled = true\n").unwrap_or_else(|e| panic!("{e}"));
+    modes::sim(
+        SimArgs {
+            world: Some("short-tube".into()),
+            seed: Some(1),
+            duration: Some(900.0),
+            config: Some(config),
+            trajectory: None,
+            plot: Some(plot.clone()),
+            out: Outputs {
+                report: Some(report.clone()),
+                ..Outputs::default()
+            },
+        },
+        false,
+    )
+    .unwrap_or_else(|e| panic!("sim failed: {e}"));
+    let text = std::fs::read_to_string(&report).unwrap_or_else(|e| panic!("{e}"));
+    let r: serde_json::Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"));
+    let e = &r["exploration"];
+    let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
+    assert_eq!(e["state"], "finished", "{e}");
+    assert_eq!(e["return_reason"], "explored", "{e}");
+    assert!(f("coverage_fraction") >= 0.9, "{e}");
+    assert!(f("home_error_m") <= 0.5, "{e}");
+    assert_eq!(e["collisions"], 0, "{e}");
+    // It ended the mission itself, well before the 900 s allowed.
+    assert!(
+        r["sim_time_s"].as_f64().unwrap_or(f64::NAN) < 800.0,
+        "{}",
+        r["sim_time_s"]
+    );
+    assert_eq!(r["scheduler"]["allocations_after_init"], 0);
+    assert!(std::fs::metadata(&plot)
+        .map(|m| m.len() > 1000)
+        .unwrap_or(false));
+}
