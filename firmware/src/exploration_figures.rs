@@ -40,6 +40,9 @@ pub struct ExplorationFigures {
     pub goals_rejected_by_sim: u64,
     pub plans_executed: u64,
     pub plans_completed: u64,
+    /// Going home without a plan from where the rover stood: drives back
+    /// along its own track.
+    pub retraces: u64,
     /// Candidate scans, and those that found nothing.
     pub scans: u64,
     pub scans_empty: u64,
@@ -70,6 +73,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         goals_rejected_by_sim: e.counters.rejected_by_sim,
         plans_executed: e.counters.plans_executed,
         plans_completed: c.plans_completed,
+        retraces: e.counters.retraces,
         scans: e.counters.scans,
         scans_empty: e.counters.scans_empty,
         safety_stops: StopReason::ALL

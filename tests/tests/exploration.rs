@@ -37,7 +37,7 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
     let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
     assert_eq!(e["state"], "finished", "{e}");
     assert_eq!(e["return_reason"], "explored", "{e}");
-    assert!(f("coverage_fraction") >= 0.9, "{e}");
+    assert!(f("coverage_fraction") >= 0.85, "{e}");
     assert!(f("home_error_m") <= 0.5, "{e}");
     assert_eq!(e["collisions"], 0, "{e}");
     // It ended the mission itself, well before the 900 s allowed.

@@ -334,7 +334,7 @@ impl InternalSim {
         if !self.terrain.chunk.triangles.is_empty() {
             if let Some(r) = &mut self.rover {
                 // A degenerate tile is left out; the rest still holds.
-                let _ = r.add_ground(&self.terrain.chunk);
+                let _ = r.add_ground_smooth(&self.terrain.chunk);
             }
         }
         Phase::Ground { tile: tile + 1 }

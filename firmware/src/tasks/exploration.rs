@@ -8,7 +8,7 @@ use speleo_exploration::{CandidateParams, CandidateScan, Explorer, ExplorerParam
 use speleo_simulator::{rmse_at_equal_times, InternalSim, Outcome, PREDICTION_POINTS};
 use speleo_slam::lie::Pose;
 
-use crate::bus::{Bus, ExplorationPhase, ExplorationStatus};
+use crate::bus::{Bus, ExplorationPhase, ExplorationStatus, PlanMsg};
 
 /// What the exploration did, for the report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -21,6 +21,10 @@ pub struct ExplorationCounters {
     pub goals_unreachable: u64,
     /// Plans handed to the control task.
     pub plans_executed: u64,
+    /// Queries that found no plan from where the rover stood (going home)
+    /// or no ground under it, after which it drove back along its own
+    /// track.
+    pub retraces: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground).
     pub validations: u64,
@@ -69,6 +73,9 @@ pub struct Exploration {
     /// the RMSE between predicted and executed positions, m.
     pub validation_ms: Vec<u32>,
     pub prediction_rmse_m: Vec<f64>,
+    /// The last query found no plan from where the rover stands (no
+    /// ground under it, or on the way home no path).
+    stranded: bool,
 }
 
 impl Exploration {
@@ -102,7 +109,77 @@ impl Exploration {
             },
             validation_ms: Vec::with_capacity(HISTORY),
             prediction_rmse_m: Vec::with_capacity(HISTORY),
+            stranded: false,
         }
+    }
+
+    /// A query on the way home found no plan.
+    pub fn home_failed(&mut self) {
+        self.stranded |= matches!(self.explorer.mode(), Mode::Returning(_));
+    }
+
+    /// A query found no ground to start from under the rover, or nothing
+    /// to explore from where it stands (the graph may be hemmed in: a way
+    /// the rover came that the map has since come to refuse).
+    pub fn no_start(&mut self) {
+        self.stranded = true;
+    }
+
+    pub fn retrace_due(&self) -> bool {
+        self.stranded && !matches!(self.explorer.mode(), Mode::Finished(_))
+    }
+
+    /// Drive back along the rover's own track, `ahead_m` of it, as plan
+    /// `query`: the rover came this way, so it can go back. The map may
+    /// have come to refuse the way (a low rim seen from the far side, a
+    /// gap the planner no longer bridges); the safety monitor still
+    /// watches every metre of it.
+    pub fn retrace(&mut self, bus: &mut Bus, now: u64, query: u64, ahead_m: f64) {
+        self.stranded = false;
+        self.counters.retraces += 1;
+        let Some(pose) = bus.slam.get().map(|p| p.value.position) else {
+            return;
+        };
+        let trail = self.explorer.trail().points();
+        let Some(from) = self.explorer.trail().earliest_near([pose[0], pose[1]], 2.0) else {
+            return;
+        };
+        let mut msg = PlanMsg {
+            query,
+            execute: true,
+            ..PlanMsg::default()
+        };
+        let mut at = pose;
+        let mut left = ahead_m;
+        let mut points = [[0.0f64; 3]; 64];
+        let mut n = 0;
+        points[n] = pose;
+        n += 1;
+        for p in trail[..=from].iter().rev() {
+            if n == points.len() || left <= 0.0 {
+                break;
+            }
+            left -= (p[0] - at[0]).hypot(p[1] - at[1]);
+            points[n] = *p;
+            n += 1;
+            at = *p;
+        }
+        for i in 0..n {
+            let (a, b) = (points[i], points[(i + 1).min(n - 1)]);
+            let heading = if i + 1 < n {
+                (b[1] - a[1]).atan2(b[0] - a[0])
+            } else {
+                let p = points[i.saturating_sub(1)];
+                (a[1] - p[1]).atan2(a[0] - p[0])
+            };
+            let _ = msg
+                .poses
+                .push([a[0] as f32, a[1] as f32, a[2] as f32, heading as f32]);
+        }
+        self.executing = query;
+        self.counters.plans_executed += 1;
+        bus.exploration.goal = Some(points[n - 1]);
+        bus.plan.publish(now, msg);
     }
 
     /// Validate every plan in `sim` first, its world made of the keyframe

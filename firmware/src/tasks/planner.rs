@@ -244,6 +244,13 @@ impl PlannerTask {
                 if !ex.ready(bus, now) {
                     return false;
                 }
+                if ex.retrace_due() {
+                    // No plan home from here: back the way the rover came.
+                    self.counters.queries += 1;
+                    ex.retrace(bus, now, self.counters.queries, self.goal_ahead_m);
+                    self.counters.plans_published += 1;
+                    return false;
+                }
             }
             None => {
                 if now < self.next_query_ns || self.route.len() < 2 {
@@ -320,6 +327,9 @@ impl PlannerTask {
             k += 1;
         }
         self.counters.no_start += 1;
+        if let Some(ex) = &mut self.explore {
+            ex.no_start();
+        }
         self.end_query();
         false
     }
@@ -363,6 +373,9 @@ impl PlannerTask {
         let angles = self.lat.angles();
         let Some((s, _)) = q.start else {
             self.counters.no_start += 1;
+            if let Some(ex) = &mut self.explore {
+                ex.no_start();
+            }
             self.end_query();
             return Phase::Idle;
         };
@@ -394,6 +407,9 @@ impl PlannerTask {
         }
         if q.order_len == 0 {
             self.counters.no_goal += 1;
+            if let Some(ex) = &mut self.explore {
+                ex.home_failed();
+            }
             self.end_query();
             return Phase::Idle;
         }
@@ -425,6 +441,7 @@ impl PlannerTask {
         explorer.query_result(!best.is_empty());
         if best.is_empty() {
             counters.scans_empty += 1;
+            ex.no_start();
             self.counters.no_goal += 1;
             self.end_query();
             return Phase::Idle;
@@ -442,6 +459,9 @@ impl PlannerTask {
     fn try_goal(&mut self, k: usize) -> Phase {
         if k >= self.query.order_len {
             self.counters.no_path += 1;
+            if let Some(ex) = &mut self.explore {
+                ex.home_failed();
+            }
             self.end_query();
             return Phase::Idle;
         }

@@ -184,7 +184,7 @@ impl PhysicsRover {
         world.gravity = Vector::new(0.0, 0.0, -GRAVITY as f32);
         world.integration_parameters.dt = dt_s as f32;
         world.integration_parameters.num_solver_iterations = p.solver_iterations as usize;
-        add_ground(&mut world, p, mesh)?;
+        add_ground(&mut world, p, mesh, TriMeshFlags::empty())?;
 
         let orientation = quat::from_ypr(start[3], 0.0, 0.0);
         let base = [start[0], start[1], start[2] + p.wheel_radius_m + 0.01];
@@ -250,7 +250,17 @@ impl PhysicsRover {
     /// Add more of the world's surface (the internal simulator builds its
     /// ground a piece at a time).
     pub fn add_ground(&mut self, mesh: &Mesh) -> Result<(), String> {
-        add_ground(&mut self.world, &self.p, mesh)
+        add_ground(&mut self.world, &self.p, mesh, TriMeshFlags::empty())
+    }
+
+    /// The same for a mesh of many small triangles (a TSDF's): contacts
+    /// on the edges between its triangles are corrected, so the legs do not
+    /// catch on edges inside a flat floor. A tile whose topology does not
+    /// allow it is added as it is.
+    pub fn add_ground_smooth(&mut self, mesh: &Mesh) -> Result<(), String> {
+        let flags = TriMeshFlags::MERGE_DUPLICATE_VERTICES | TriMeshFlags::FIX_INTERNAL_EDGES;
+        add_ground(&mut self.world, &self.p, mesh, flags)
+            .or_else(|_| add_ground(&mut self.world, &self.p, mesh, TriMeshFlags::empty()))
     }
 
     pub fn params(&self) -> &PhysicsParams {
@@ -404,7 +414,12 @@ fn wheel_collider(p: &PhysicsParams, phase: f64) -> Result<ColliderBuilder, Stri
 
 /// The world's triangles as fixed trimesh colliders, one per surface so each
 /// has its friction.
-fn add_ground(world: &mut PhysicsWorld, p: &PhysicsParams, mesh: &Mesh) -> Result<(), String> {
+fn add_ground(
+    world: &mut PhysicsWorld,
+    p: &PhysicsParams,
+    mesh: &Mesh,
+    flags: TriMeshFlags,
+) -> Result<(), String> {
     let ground = world.insert_body(RigidBodyBuilder::fixed());
     let kinds = [
         Surface::Rock,
@@ -435,7 +450,7 @@ fn add_ground(world: &mut PhysicsWorld, p: &PhysicsParams, mesh: &Mesh) -> Resul
         if triangles.is_empty() {
             continue;
         }
-        let collider = ColliderBuilder::trimesh(vertices, triangles)
+        let collider = ColliderBuilder::trimesh_with_flags(vertices, triangles, flags)
             .map_err(|e| format!("the world mesh cannot be driven on: {e:?}"))?
             .friction(p.friction(kind) as f32)
             .friction_combine_rule(CoefficientCombineRule::Min);
