@@ -91,6 +91,8 @@ pub struct SafetyParams {
     /// Ground under base_link, m.
     pub base_height_m: f64,
     pub max_cross_track_m: f64,
+    /// Around where a plan began, no ground seen is not an edge, m.
+    pub blind_radius_m: f64,
 }
 
 impl Default for SafetyParams {
@@ -109,6 +111,7 @@ impl Default for SafetyParams {
             max_slope_deg: 30.0,
             base_height_m: 0.19,
             max_cross_track_m: 0.8,
+            blind_radius_m: 1.2,
         }
     }
 }
@@ -139,6 +142,8 @@ pub struct SafetyMonitor {
     anchor: Option<(f64, [f64; 2], f64)>,
     /// The tilt at the first check since the last reset.
     start_tilt_deg: Option<f64>,
+    /// Where the rover stood at the last reset (a plan's start).
+    start_xy: Option<[f64; 2]>,
 }
 
 /// A rover already tilted beyond the limit (stopped there) may move as
@@ -152,6 +157,7 @@ impl SafetyMonitor {
             p,
             anchor: None,
             start_tilt_deg: None,
+            start_xy: None,
         }
     }
 
@@ -163,11 +169,13 @@ impl SafetyMonitor {
     pub fn reset(&mut self) {
         self.anchor = None;
         self.start_tilt_deg = None;
+        self.start_xy = None;
     }
 
     /// Whether the command must not be sent, and why.
     pub fn check(&mut self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
         let start = *self.start_tilt_deg.get_or_insert(s.tilt_deg);
+        self.start_xy.get_or_insert([s.position[0], s.position[1]]);
         if s.tilt_deg > self.p.max_tilt_deg.max(start + TILT_GROWTH_DEG) {
             return Some(StopReason::Tilt);
         }
@@ -219,6 +227,10 @@ impl SafetyMonitor {
             let (x, y) = (s.position[0] + dir * r * cs, s.position[1] + dir * r * sn);
             match map.probe(x, y, ground, self.p.max_step_m + r * slope) {
                 Probe::Ground => gap = 0.0,
+                // The LiDAR never sees the ground around where the rover
+                // stood still (its lowest beam meets it ~1 m away): no
+                // ground there is no edge.
+                Probe::NoGround if self.in_blind_zone(x, y) => gap = 0.0,
                 Probe::NoGround => {
                     gap += self.p.probe_step_m;
                     if gap > self.p.max_gap_m {
@@ -232,6 +244,13 @@ impl SafetyMonitor {
             }
         }
         None
+    }
+}
+
+impl SafetyMonitor {
+    fn in_blind_zone(&self, x: f64, y: f64) -> bool {
+        self.start_xy
+            .is_some_and(|s| libm::hypot(x - s[0], y - s[1]) < self.p.blind_radius_m)
     }
 }
 
@@ -326,6 +345,33 @@ mod tests {
         let mut near_end = input(4.2, 0.0);
         near_end.remaining_m = 0.2;
         assert_eq!(m.check(&near_end, &map), None);
+    }
+
+    #[test]
+    fn no_ground_around_where_the_plan_began_is_not_an_edge() {
+        // Nothing seen within 1.1 m of the start (the LiDAR's blind ring),
+        // ground beyond.
+        struct Blind;
+        impl GroundProbe for Blind {
+            fn probe(&self, x: f64, y: f64, _z: f64, _tol: f64) -> Probe {
+                if x.hypot(y) < 1.1 {
+                    Probe::NoGround
+                } else {
+                    Probe::Ground
+                }
+            }
+        }
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        assert_eq!(m.check(&input(0.0, 0.0), &Blind), None);
+        // Elsewhere the same hole would be an edge.
+        let mut far = SafetyMonitor::new(SafetyParams::default());
+        let mut s = input(-3.0, 0.0);
+        s.position[0] = -2.0;
+        assert_eq!(
+            far.check(&s, &Blind),
+            None,
+            "1 m of hole is bridged by the ring gap rule"
+        );
     }
 
     #[test]

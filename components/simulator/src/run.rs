@@ -72,11 +72,12 @@ enum Phase {
     Done,
 }
 
-/// Work units: points integrated, and physics steps (about 40 us each).
+/// Work units: points integrated, and physics steps (40-100 us each on a
+/// TSDF floor).
 const POINTS_PER_UNIT: usize = 32;
-const UNITS_PER_STEP: usize = 4;
-/// A tile's meshing and its collider count this many units.
-const UNITS_PER_TILE: usize = 16;
+const UNITS_PER_STEP: usize = 6;
+/// A tile's meshing and its collider: a whole step.
+const UNITS_PER_TILE: usize = 32;
 /// The ribbon of ground along the plan lies this far under the planner's
 /// ground, m.
 const RIBBON_DROP_M: f32 = 0.03;
