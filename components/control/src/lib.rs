@@ -115,14 +115,7 @@ impl PurePursuit {
         if self.done || self.segments() == 0 {
             return 0.0;
         }
-        let (a, b) = self.seg(self.segment);
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let len = libm::hypot(dx, dy);
-        let t = if len > 0.0 {
-            (((x - a[0]) * dx + (y - a[1]) * dy) / (len * len)).clamp(0.0, 1.0)
-        } else {
-            1.0
-        };
+        let (_, _, len, t) = self.project(x, y);
         let mut left = (1.0 - t) * len;
         for i in self.segment + 1..self.segments() {
             let (a, b) = self.seg(i);
@@ -136,15 +129,23 @@ impl PurePursuit {
         if self.segments() == 0 {
             return 0.0;
         }
+        let (a, d, _, t) = self.project(x, y);
+        libm::hypot(a[0] + t * d[0] - x, a[1] + t * d[1] - y)
+    }
+
+    /// The current segment's start and direction (end - start), its length,
+    /// and where (x, y) projects on it as a fraction clamped to [0, 1] (1
+    /// on a zero-length segment).
+    fn project(&self, x: f64, y: f64) -> ([f64; 2], [f64; 2], f64, f64) {
         let (a, b) = self.seg(self.segment);
         let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 {
-            (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0)
+        let len = libm::hypot(dx, dy);
+        let t = if len > 0.0 {
+            (((x - a[0]) * dx + (y - a[1]) * dy) / (len * len)).clamp(0.0, 1.0)
         } else {
-            0.0
+            1.0
         };
-        libm::hypot(a[0] + t * dx - x, a[1] + t * dy - y)
+        (a, [dx, dy], len, t)
     }
 
     pub fn segment(&self) -> usize {
@@ -223,15 +224,8 @@ impl PurePursuit {
     /// The point one lookahead ahead along the path from the rover's projection.
     fn lookahead_point(&self, x: f64, y: f64) -> [f64; 2] {
         let mut remaining = self.p.lookahead_m;
-        let (a, b) = self.seg(self.segment);
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let len = libm::hypot(dx, dy);
-        let t = if len > 0.0 {
-            (((x - a[0]) * dx + (y - a[1]) * dy) / (len * len)).clamp(0.0, 1.0)
-        } else {
-            1.0
-        };
-        let mut p = [a[0] + t * dx, a[1] + t * dy];
+        let (a, d, _, t) = self.project(x, y);
+        let mut p = [a[0] + t * d[0], a[1] + t * d[1]];
         let mut i = self.segment;
         for _ in 0..self.path.len() + 1 {
             let (_, b) = self.seg(i);
