@@ -167,21 +167,9 @@ pub struct InternalSimFigures {
     pub triangles_max: u64,
 }
 
-fn median_f64(v: &[f64]) -> Option<f64> {
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    match n {
-        0 => None,
-        _ if n % 2 == 1 => Some(s[n / 2]),
-        _ => Some((s[n / 2 - 1] + s[n / 2]) / 2.0),
-    }
-}
-
 pub fn internal_sim(e: &Exploration) -> Option<InternalSimFigures> {
     e.sim.as_ref()?;
     let c = &e.counters;
-    let ms: Vec<f64> = e.validation_ms.iter().map(|&v| v as f64).collect();
     let names = ["timeout", "tipped_over", "stuck", "missed", "no_ground"];
     Some(InternalSimFigures {
         validations: c.validations,
@@ -192,10 +180,10 @@ pub fn internal_sim(e: &Exploration) -> Option<InternalSimFigures> {
             .zip(c.sim_outcomes)
             .map(|(n, k)| (n.to_string(), k))
             .collect(),
-        validation_ms_median: median_f64(&ms),
+        validation_ms_median: crate::planner_figures::median(&e.validation_ms),
         validation_ms_max: e.validation_ms.iter().max().copied(),
         comparisons: e.prediction_rmse_m.len(),
-        prediction_rmse_m_median: median_f64(&e.prediction_rmse_m),
+        prediction_rmse_m_median: crate::planner_figures::median(&e.prediction_rmse_m),
         prediction_rmse_m_max: e.prediction_rmse_m.iter().copied().reduce(f64::max),
         physics_steps: c.sim_physics_steps,
         triangles_max: c.sim_triangles_max,

@@ -30,14 +30,15 @@ pub struct PlannerFigures {
     pub memory_bytes: usize,
 }
 
-fn median(v: &[u32]) -> Option<f64> {
-    let mut s = v.to_vec();
-    s.sort_unstable();
+/// The median of a report's figures (not on board: it sorts a copy).
+pub(crate) fn median<T: Copy + Into<f64>>(v: &[T]) -> Option<f64> {
+    let mut s: Vec<f64> = v.iter().map(|&x| x.into()).collect();
+    s.sort_by(f64::total_cmp);
     let n = s.len();
     match n {
         0 => None,
-        _ if n % 2 == 1 => Some(s[n / 2] as f64),
-        _ => Some((s[n / 2 - 1] as f64 + s[n / 2] as f64) / 2.0),
+        _ if n % 2 == 1 => Some(s[n / 2]),
+        _ => Some((s[n / 2 - 1] + s[n / 2]) / 2.0),
     }
 }
 
@@ -72,7 +73,8 @@ mod tests {
 
     #[test]
     fn medians_of_odd_and_even_counts() {
-        assert_eq!(median(&[]), None);
+        assert_eq!(median::<u32>(&[]), None);
+        assert_eq!(median(&[0.5, -1.0]), Some(-0.25));
         assert_eq!(median(&[5, 1, 3]), Some(3.0));
         assert_eq!(median(&[4, 1, 3, 2]), Some(2.5));
     }

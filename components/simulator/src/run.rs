@@ -81,6 +81,9 @@ const UNITS_PER_TILE: usize = 32;
 /// The ribbon of ground along the plan lies this far under the planner's
 /// ground, m.
 const RIBBON_DROP_M: f32 = 0.03;
+/// The ribbon's width beyond the wheels and length beyond the body, m:
+/// the follower's straying from the path.
+const RIBBON_MARGIN_M: f64 = 0.3;
 /// Turning this much on the spot is progress, rad.
 const STUCK_TURN_RAD: f64 = 0.3;
 /// The rover is put down this far over its estimated ground, m.
@@ -287,17 +290,24 @@ impl InternalSim {
     }
 
     /// A ribbon of ground along the plan, a little under the height the
-    /// planner found at each pose: the LiDAR's rings leave gaps in the
-    /// ground between them that the planner bridges and the TSDF does not
-    /// fill, and the rover's legs would drop into them. Each pose gets its
-    /// own flat piece, so a step in the plan stays a step; where the TSDF
-    /// has ground, it lies above the ribbon and carries the rover.
+    /// planner found at each pose: the planner's belief where the TSDF has
+    /// nothing. The LiDAR's rings leave gaps in the ground that the planner
+    /// bridges and the TSDF does not fill, and a frontier goal lies where
+    /// the seen ground ends, with the rover's front beyond it. Each pose
+    /// gets its own flat piece, so a step in the plan stays a step (the
+    /// highest piece carries the rover where they overlap); the
+    /// ribbon is as wide as the wheels plus the follower's straying, and
+    /// goes a body's half length beyond both ends of the plan. Where the
+    /// TSDF has ground, it lies above the ribbon and carries the rover.
     fn ribbon(&self) -> Mesh {
         let mut m = Mesh::default();
-        let half_w = (0.5 * self.p.physics.track_width_m + self.p.physics.wheel_radius_m) as f32;
+        let ph = &self.p.physics;
+        let half_w = (0.5 * ph.track_width_m + ph.wheel_radius_m + RIBBON_MARGIN_M) as f32;
+        let beyond = (0.5 * ph.wheelbase_m + ph.wheel_radius_m + RIBBON_MARGIN_M) as f32;
+        let last = self.plan.len().saturating_sub(1);
         for (i, q) in self.plan.iter().enumerate() {
             let next = self.plan.get(i + 1).unwrap_or(q);
-            let len = ((next[0] - q[0]).hypot(next[1] - q[1]) as f32).max(0.1);
+            let len = (next[0] - q[0]).hypot(next[1] - q[1]) as f32;
             let (s, c) = (q[3] as f32).sin_cos();
             // Along the way to the next pose (its direction, or the heading).
             let (dx, dy) = if len > 0.1 {
@@ -307,7 +317,10 @@ impl InternalSim {
             };
             let (px, py) = (-dy, dx);
             let (x, y, z) = (q[0] as f32, q[1] as f32, q[2] as f32 - RIBBON_DROP_M);
-            let (a0, a1) = (-0.05, len + 0.05);
+            // Pieces overlap by their half width, so the outside of a turn
+            // is covered too.
+            let a0 = if i == 0 { -beyond } else { -half_w };
+            let a1 = if i == last { beyond } else { len + half_w };
             let base = m.vertices.len() as u32;
             for (u, v) in [(a0, -half_w), (a1, -half_w), (a1, half_w), (a0, half_w)] {
                 m.vertices

@@ -57,7 +57,13 @@ impl CloudSource for Scans {
 }
 
 fn plan(z: impl Fn(f64) -> f64) -> Vec<[f64; 4]> {
-    (0..=50)
+    plan_to(5.0, z)
+}
+
+/// Straight along x from 0 to `end`.
+fn plan_to(end: f64, z: impl Fn(f64) -> f64) -> Vec<[f64; 4]> {
+    let n = (end / 0.1).round() as usize;
+    (0..=n)
         .map(|i| {
             let x = 0.1 * i as f64;
             [x, 0.0, z(x), 0.0]
@@ -66,10 +72,17 @@ fn plan(z: impl Fn(f64) -> f64) -> Vec<[f64; 4]> {
 }
 
 fn validate(z: impl Fn(f64) -> f64 + Copy) -> (Outcome, Vec<[f64; 3]>, f64) {
+    validate_plan(z, plan(z))
+}
+
+fn validate_plan(
+    z: impl Fn(f64) -> f64 + Copy,
+    plan: Vec<[f64; 4]>,
+) -> (Outcome, Vec<[f64; 3]>, f64) {
     let scans = Scans::new(z);
     let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
     let p = SimulatorParams::default();
-    sim.begin([0.0, 0.0, z(0.0) + p.base_height_m, 0.0], plan(z));
+    sim.begin([0.0, 0.0, z(0.0) + p.base_height_m, 0.0], plan);
     let mut steps = 0;
     let v = loop {
         if let Some(v) = sim.step(&scans, 32) {
@@ -117,4 +130,14 @@ fn a_ledge_the_rover_cannot_climb_is_refused() {
     // It drove up to the ledge.
     let last = prediction.last().copied().expect("prediction");
     assert!(last[0] > 1.5 && last[0] < 2.6, "{last:?}");
+}
+
+#[test]
+fn a_goal_where_the_seen_floor_ends_is_reached() {
+    // A frontier goal: the scans' floor ends at x = 8 and the goal lies at
+    // its end (the planner bridges a ring gap there), so the rover's front
+    // wheels stop over ground the map has not seen yet.
+    let flat = |_: f64| 0.0;
+    let (outcome, _, err) = validate_plan(flat, plan_to(8.2, flat));
+    assert_eq!(outcome, Outcome::Reached, "{err}");
 }

@@ -28,6 +28,9 @@ pub struct PlannerConfig {
     /// Steepest support plane and highest step the rover drives.
     pub max_slope_deg: f64,
     pub max_step_m: f64,
+    /// The body's underside over the ground: the map must show nothing
+    /// between this height and the body's top along a path, m.
+    pub ground_clearance_m: f64,
     /// Travel-time costs.
     pub forward_speed_mps: f64,
     pub backward_speed_mps: f64,
@@ -58,6 +61,7 @@ impl Default for PlannerConfig {
             eps_step: 0.2,
             max_slope_deg: t.max_slope_deg,
             max_step_m: t.max_step_m as f64,
+            ground_clearance_m: t.ground_clearance_m as f64,
             forward_speed_mps: s.forward_speed_mps,
             backward_speed_mps: s.backward_speed_mps,
             turn_speed_rad_s: s.turn_speed_rad_s,
@@ -128,12 +132,20 @@ impl PlannerConfig {
             80.0,
             "1..=80",
         )?;
+        // Under the body's top (`TravParams::robot_height_m`, 0.7 m).
+        range(
+            "planner.ground_clearance_m",
+            self.ground_clearance_m,
+            0.02,
+            0.69,
+            "0.02..=0.69",
+        )?;
         range(
             "planner.max_step_m",
             self.max_step_m,
             0.01,
-            0.19,
-            "0.01..=0.19",
+            self.ground_clearance_m - 0.01,
+            "0.01..=ground_clearance_m - 0.01",
         )?;
         for (k, v) in [
             ("planner.forward_speed_mps", self.forward_speed_mps),
@@ -158,6 +170,7 @@ impl PlannerConfig {
         speleo_traversability::TravParams {
             max_slope_deg: self.max_slope_deg,
             max_step_m: self.max_step_m as f32,
+            ground_clearance_m: self.ground_clearance_m as f32,
             max_nodes: self.max_nodes,
             ..speleo_traversability::TravParams::default()
         }

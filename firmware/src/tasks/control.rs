@@ -300,21 +300,30 @@ mod tests {
         })
     }
 
+    /// Where a driven plan ended.
+    struct Ended {
+        x: f64,
+        yaw: f64,
+        command: WheelCommand,
+        /// Some command drove backward.
+        reversed: bool,
+    }
+
     /// Drive a unicycle with the task's commands from (1, 2) heading +x
-    /// along a plan to (9, 2), past the ledge; the x where it came to rest
-    /// and the last command.
-    fn drive(bus: &mut Bus, t: &mut ControlTask) -> (f64, WheelCommand) {
+    /// along a plan through `poses` until the task reports it done.
+    fn drive(bus: &mut Bus, t: &mut ControlTask, poses: impl Iterator<Item = [f32; 4]>) -> Ended {
         let mut plan = PlanMsg {
             query: 1,
             execute: true,
             optimal: true,
             ..PlanMsg::default()
         };
-        for k in 0..=80 {
-            let _ = plan.poses.push([1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        for p in poses {
+            let _ = plan.poses.push(p);
         }
         bus.plan.publish(0, plan);
         let (mut x, mut y, mut yaw) = (1.0, 2.0, 0.0f64);
+        let mut reversed = false;
         for f in (1..3000).step_by(2) {
             let q = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
             bus.slam.publish(
@@ -332,8 +341,14 @@ mod tests {
                 .unwrap_or_else(|| panic!("no command"))
                 .value;
             if c.done {
-                return (x, c);
+                return Ended {
+                    x,
+                    yaw,
+                    command: c,
+                    reversed,
+                };
             }
+            reversed |= c.speed < -0.05;
             let dt = 0.02;
             yaw += c.yaw_rate * dt;
             x += c.speed * yaw.cos() * dt;
@@ -346,7 +361,9 @@ mod tests {
     fn the_safety_monitor_stops_the_rover_before_it_leaves_the_map() {
         let mut bus = bus_with_a_ledge();
         let mut t = task();
-        let (x, c) = drive(&mut bus, &mut t);
+        // To (9, 2), past the ledge.
+        let out = (0..=80).map(|k| [1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        let Ended { x, command: c, .. } = drive(&mut bus, &mut t, out);
         assert_eq!(StopReason::from_code(c.stop), Some(StopReason::LeavingMap));
         assert_eq!((c.speed, c.yaw_rate), (0.0, 0.0));
         assert_eq!(c.plan, 1);
@@ -360,48 +377,13 @@ mod tests {
     fn a_plan_on_seen_ground_is_driven_to_its_end() {
         let mut bus = bus_with_a_ledge();
         let mut t = task();
-        let mut plan = PlanMsg {
-            query: 1,
-            execute: true,
-            ..PlanMsg::default()
-        };
         // Out along the ground, then backing up to x = 2.5.
-        for k in 0..=20 {
-            let _ = plan.poses.push([1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
-        }
-        for k in 1..=5 {
-            let _ = plan.poses.push([3.0 - 0.1 * k as f32, 2.0, 0.0, 0.0]);
-        }
-        bus.plan.publish(0, plan);
-        let (mut x, mut yaw) = (1.0, 0.0f64);
-        let mut reversed = false;
-        for f in (1..3000).step_by(2) {
-            let q = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
-            bus.slam.publish(
-                0,
-                SlamPose {
-                    position: [x, 2.0, 0.17],
-                    orientation: q,
-                    keyframes: 1,
-                },
-            );
-            t.run(&mut bus, &cx(f));
-            let c = bus
-                .command
-                .get()
-                .unwrap_or_else(|| panic!("no command"))
-                .value;
-            if c.done {
-                assert_eq!(c.stop, 0);
-                assert!(reversed, "the last leg is driven backward");
-                assert!((x - 2.5).abs() < 0.3, "ended at {x}");
-                assert!(yaw.abs() < 0.1, "it did not turn round: {yaw}");
-                return;
-            }
-            reversed |= c.speed < -0.05;
-            yaw += c.yaw_rate * 0.02;
-            x += c.speed * yaw.cos() * 0.02;
-        }
-        panic!("never ended");
+        let out = (0..=20).map(|k| [1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        let back = (1..=5).map(|k| [3.0 - 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        let e = drive(&mut bus, &mut t, out.chain(back));
+        assert_eq!(e.command.stop, 0);
+        assert!(e.reversed, "the last leg is driven backward");
+        assert!((e.x - 2.5).abs() < 0.3, "ended at {}", e.x);
+        assert!(e.yaw.abs() < 0.1, "it did not turn round: {}", e.yaw);
     }
 }

@@ -840,8 +840,6 @@ mod tests {
     /// A 12 x 4 m floor seen densely, 0.17 m under base_link at (1, 2),
     /// with a boulder in the middle of the way.
     fn bus_on_a_floor() -> Box<Bus> {
-        let mut bus = Bus::new();
-        bus.surface = SurfaceMaps::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
         let mut pts = Vec::new();
         for i in 0..240 {
             for j in 0..80 {
@@ -850,12 +848,20 @@ mod tests {
                 pts.push([x, y, if rock { 0.5 } else { 0.0 }]);
             }
         }
+        bus_with_map(&pts, [1.0, 2.0, 0.17])
+    }
+
+    /// A bus whose serving map holds `pts`, with the rover's SLAM pose at
+    /// `at`, level and heading along x.
+    fn bus_with_map(pts: &[[f64; 3]], at: [f64; 3]) -> Box<Bus> {
+        let mut bus = Bus::new();
+        bus.surface = SurfaceMaps::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
         let m = bus.surface.active();
-        bus.surface.map_mut(m).insert_points(&pts);
+        bus.surface.map_mut(m).insert_points(pts);
         bus.slam.publish(
             0,
             SlamPose {
-                position: [1.0, 2.0, 0.17],
+                position: at,
                 orientation: [1.0, 0.0, 0.0, 0.0],
                 keyframes: 1,
             },
@@ -867,6 +873,15 @@ mod tests {
         let cfg = PlannerConfig::default();
         let prims = speleo_planner::primitives::generate(&Default::default());
         PlannerTask::new(&cfg, &prims, 0.1, route, false, 0.17).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The plan on the bus.
+    fn published(bus: &Bus) -> PlanMsg {
+        bus.plan
+            .get()
+            .unwrap_or_else(|| panic!("no plan published"))
+            .value
+            .clone()
     }
 
     /// Steps until the first query ends; the frames it took.
@@ -888,12 +903,7 @@ mod tests {
         let frames = run_query(&mut t, &mut bus);
         let c = t.counters;
         assert_eq!((c.queries, c.solved, c.optimal), (1, 1, 1), "{c:?}");
-        let plan = bus
-            .plan
-            .get()
-            .unwrap_or_else(|| panic!("no plan"))
-            .value
-            .clone();
+        let plan = published(&bus);
         assert!(plan.optimal && plan.eps == 1.0);
         let (first, last) = (plan.poses[0], plan.poses[plan.poses.len() - 1]);
         // From the rover to the route 8 m ahead (at any heading).
@@ -948,12 +958,7 @@ mod tests {
         let mut bus = bus_on_a_floor();
         let mut t = exploring_task();
         run_query(&mut t, &mut bus);
-        let plan = bus
-            .plan
-            .get()
-            .unwrap_or_else(|| panic!("no plan"))
-            .value
-            .clone();
+        let plan = published(&bus);
         assert!(plan.execute && plan.optimal, "{plan:?}");
         let last = plan.poses[plan.poses.len() - 1];
         // A border of the seen floor (nothing was seen beyond it) outside
@@ -977,6 +982,102 @@ mod tests {
             t.step(&mut bus, &cx(20_000 + f), 32);
         }
         assert_eq!(t.counters.queries, 1);
+    }
+
+    /// Height of the ledge: over the planner's configured step, but the
+    /// rover (0.19 m wheels) climbs no more than about 0.2 m.
+    const LEDGE_M: f64 = 0.3;
+
+    /// A 16 x 4 m corridor with a ledge across it at x = 10, seen densely
+    /// from three keyframes along it; the rover at (8, 2).
+    fn bus_before_a_ledge() -> Box<Bus> {
+        use crate::keyframe_clouds::KeyframeClouds;
+        use nalgebra::{Matrix3, Vector3};
+        use speleo_slam::lie::Pose;
+        let mut pts = Vec::new();
+        for i in 0..320 {
+            for j in 0..80 {
+                let (x, y) = (i as f64 * 0.05 + 0.025, j as f64 * 0.05 + 0.025);
+                let ground = if x < 10.0 { 0.0 } else { LEDGE_M };
+                pts.push([x, y, ground]);
+                // Walls along both sides: a corridor open at its ends.
+                if j == 0 || j == 79 {
+                    for k in 1..20 {
+                        pts.push([x, y, ground + 0.05 * k as f64]);
+                    }
+                }
+                if i == 200 {
+                    // Its face.
+                    let mut h = 0.05;
+                    while h < LEDGE_M {
+                        pts.push([10.0, y, h]);
+                        h += 0.05;
+                    }
+                }
+            }
+        }
+        let mut bus = bus_with_map(&pts, [8.0, 2.0, 0.17]);
+        let sensors = [[4.0, 2.0, 0.8], [8.0, 2.0, 0.8], [12.0, 2.0, 1.1]];
+        bus.keyframe_clouds = KeyframeClouds::new(sensors.len(), pts.len());
+        for o in sensors {
+            assert!(bus.keyframe_clouds.begin());
+            for p in &pts {
+                bus.keyframe_clouds
+                    .push([p[0] - o[0], p[1] - o[1], p[2] - o[2]]);
+            }
+            bus.keyframe_clouds.commit();
+        }
+        bus.keyframe_clouds
+            .set_poses(sensors.map(|o| Pose::new(Matrix3::identity(), Vector3::from(o))));
+        bus
+    }
+
+    #[test]
+    fn a_goal_beyond_a_ledge_the_rover_cannot_climb_is_refused_by_the_simulation_and_another_chosen(
+    ) {
+        // A planner told the rover steps up to 0.35 m, drawn toward the
+        // far side of the ledge.
+        let cfg = PlannerConfig {
+            max_step_m: 0.35,
+            ground_clearance_m: 0.4,
+            ..PlannerConfig::default()
+        };
+        let prims = speleo_planner::primitives::generate(&Default::default());
+        let e = crate::config::ExplorationConfig {
+            weight_target: 1.0,
+            ..Default::default()
+        };
+        let sim = speleo_simulator::InternalSim::new(Default::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let ex = Exploration::new(
+            e.explorer_params(),
+            e.candidate_params(),
+            Some([40.0, 2.0]),
+            0.0,
+        )
+        .with_simulator(sim, speleo_slam::lie::Pose::identity());
+        let mut t = PlannerTask::new(&cfg, &prims, 0.1, &[], false, 0.17)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .with_exploration(ex);
+        let mut bus = bus_before_a_ledge();
+        for f in 0..400_000 {
+            t.step(&mut bus, &cx(f), 32);
+            if bus.plan.get().is_some_and(|p| p.value.execute) {
+                break;
+            }
+        }
+        let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
+        let c = ex.counters;
+        // The first goal lay up the ledge; the simulated rover failed there.
+        assert!(c.rejected_by_sim >= 1, "{c:?}");
+        assert_eq!(c.validated, 1, "{c:?}");
+        assert_eq!(c.validations, c.rejected_by_sim + 1, "{c:?}");
+        let plan = published(&bus);
+        assert!(plan.execute, "{plan:?}");
+        // The plan driven stays on the lower floor.
+        for p in &plan.poses {
+            assert!(p[0] < 9.6, "{p:?} climbs the ledge");
+        }
     }
 
     #[test]
