@@ -72,12 +72,13 @@ enum Phase {
     Done,
 }
 
-/// Work units: points integrated, and physics steps (40-100 us each on a
-/// TSDF floor).
-const POINTS_PER_UNIT: usize = 32;
+/// Work units, sized as the planner's (~30 us each; a 1 ms window holds
+/// 32) from `benches/validation_phases.rs` on the short tube: 256 points
+/// integrated (~31 us), a 0.5 m tile meshed and added to the world (median
+/// ~0.2 ms, p90 ~0.45 ms), a physics step (~190 us).
+const POINTS_PER_UNIT: usize = 256;
 const UNITS_PER_STEP: usize = 6;
-/// A tile's meshing and its collider: a whole step.
-const UNITS_PER_TILE: usize = 32;
+const UNITS_PER_TILE: usize = 12;
 /// The ribbon of ground along the plan lies this far under the planner's
 /// ground, m.
 const RIBBON_DROP_M: f32 = 0.03;
@@ -167,8 +168,10 @@ impl InternalSim {
         }
         let m = self.p.margin_m;
         self.terrain.begin(
-            [lo[0] - m, lo[1] - m, lo[2] - 1.5],
-            [hi[0] + m, hi[1] + m, hi[2] + 2.5],
+            // Drops a metre under the plan; walls and roof up to where
+            // the body (0.7 m) could meet them.
+            [lo[0] - m, lo[1] - m, lo[2] - 1.0],
+            [hi[0] + m, hi[1] + m, hi[2] + 1.5],
         );
         let length: f64 = self
             .plan
@@ -186,6 +189,17 @@ impl InternalSim {
         self.limiter.halt();
         self.counters.runs += 1;
         self.phase = Phase::Integrate { k: 0, from: 0 };
+    }
+
+    /// What the next step works on: "integrate", "ground", "drive", or
+    /// "idle" (no validation, or its verdict is in).
+    pub fn work(&self) -> &'static str {
+        match self.phase {
+            Phase::Integrate { .. } => "integrate",
+            Phase::Ground { .. } => "ground",
+            Phase::Drive => "drive",
+            Phase::Idle | Phase::Done => "idle",
+        }
     }
 
     /// The trajectory predicted so far: positions every 0.1 s since motion began.
@@ -215,6 +229,11 @@ impl InternalSim {
                 Phase::Integrate { k, from } => {
                     left = left.saturating_sub(1);
                     self.phase = self.integrate(clouds, k, from);
+                }
+                Phase::Ground { tile } if tile < self.terrain.tiles && !self.near_plan(tile) => {
+                    // Ground the rover cannot reach on this plan.
+                    left = left.saturating_sub(1);
+                    self.phase = Phase::Ground { tile: tile + 1 };
                 }
                 Phase::Ground { tile } => {
                     left = left.saturating_sub(UNITS_PER_TILE);
@@ -331,6 +350,22 @@ impl InternalSim {
             m.surfaces.extend([speleo_hal::world::Surface::Rock; 2]);
         }
         m
+    }
+
+    /// Whether tile `i` lies within the margin of the plan (or the start).
+    fn near_plan(&self, i: usize) -> bool {
+        let (lo, hi) = self.terrain.tile_bounds(i);
+        let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
+        let reach = self.p.margin_m + 0.5 * (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
+        let start = [self.start[0], self.start[1]];
+        let mut prev = start;
+        let mut near = (c[0] - start[0]).hypot(c[1] - start[1]) <= reach;
+        for q in &self.plan {
+            let p = [q[0], q[1]];
+            near |= segment_distance(c, prev, p) <= reach;
+            prev = p;
+        }
+        near
     }
 
     fn ground(&mut self, tile: usize) -> Phase {
@@ -460,4 +495,16 @@ impl InternalSim {
         self.phase = self.finish(outcome);
         self.verdict
     }
+}
+
+/// Distance from `c` to the segment `a`-`b`, in x and y.
+fn segment_distance(c: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((c[0] - a[0]) * dx + (c[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (c[0] - a[0] - t * dx).hypot(c[1] - a[1] - t * dy)
 }

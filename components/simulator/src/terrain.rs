@@ -15,8 +15,8 @@ pub(crate) struct Terrain {
     pub lo: [f64; 3],
     pub hi: [f64; 3],
     tile_m: f64,
-    /// The axis the tiles are cut along (the region's longer one).
-    axis: usize,
+    /// Square tiles over the box: `nx` along x, `tiles` in all.
+    nx: usize,
     pub tiles: usize,
     pub triangles: usize,
 }
@@ -38,7 +38,7 @@ impl Terrain {
             lo: [0.0; 3],
             hi: [0.0; 3],
             tile_m: p.tile_m,
-            axis: 0,
+            nx: 1,
             tiles: 0,
             triangles: 0,
         })
@@ -49,10 +49,9 @@ impl Terrain {
         self.tsdf.clear();
         self.lo = lo;
         self.hi = hi;
-        self.axis = if hi[0] - lo[0] >= hi[1] - lo[1] { 0 } else { 1 };
-        self.tiles = ((hi[self.axis] - lo[self.axis]) / self.tile_m)
-            .ceil()
-            .max(1.0) as usize;
+        let n = |k: usize| ((hi[k] - lo[k]) / self.tile_m).ceil().max(1.0) as usize;
+        self.nx = n(0);
+        self.tiles = self.nx * n(1);
         self.triangles = 0;
     }
 
@@ -70,12 +69,22 @@ impl Terrain {
         self.tsdf.integrate(origin, points).integrated
     }
 
+    /// Tile `i`'s corners in x and y.
+    pub fn tile_bounds(&self, i: usize) -> ([f64; 2], [f64; 2]) {
+        let (ix, iy) = ((i % self.nx) as f64, (i / self.nx) as f64);
+        let lo = [self.lo[0] + ix * self.tile_m, self.lo[1] + iy * self.tile_m];
+        let hi = [
+            (lo[0] + self.tile_m).min(self.hi[0]),
+            (lo[1] + self.tile_m).min(self.hi[1]),
+        ];
+        (lo, hi)
+    }
+
     /// Mesh tile `i` into `chunk` (rock: the simulator knows no better).
     pub fn mesh_tile(&mut self, i: usize) {
-        let mut lo = self.lo;
-        let mut hi = self.hi;
-        lo[self.axis] = self.lo[self.axis] + i as f64 * self.tile_m;
-        hi[self.axis] = (lo[self.axis] + self.tile_m).min(self.hi[self.axis]);
+        let (a, b) = self.tile_bounds(i);
+        let lo = [a[0], a[1], self.lo[2]];
+        let hi = [b[0], b[1], self.hi[2]];
         self.tsdf.mesh_region(lo, hi, &mut self.buffers);
         let m = &self.buffers.mesh;
         self.chunk.vertices.clear();

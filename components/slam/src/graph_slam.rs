@@ -109,7 +109,7 @@ pub struct SlamParams {
 impl Default for SlamParams {
     fn default() -> Self {
         SlamParams {
-            keyframe_capacity: 1024,
+            keyframe_capacity: 2048,
             active_keyframes: 100,
             submap_keyframes: 5,
             keyframe_distance_m: 1.0,

@@ -195,6 +195,17 @@ impl Task<Bus> for ControlTask {
                     cross_track_m: plans.cross_track_m(x, y),
                 };
                 if let Some(r) = self.monitor.check(&input, &MlsProbe(bus.surface.serving())) {
+                    tracing::debug!(
+                        reason = r.name(),
+                        x = p.position[0],
+                        y = p.position[1],
+                        z = p.position[2],
+                        yaw_deg = yaw.to_degrees(),
+                        tilt_deg = input.tilt_deg,
+                        v = t.v,
+                        w = t.w,
+                        "safety stop"
+                    );
                     self.stop = r as u8;
                     self.counters.stops[r as usize - 1] += 1;
                     plans.abandon();

@@ -470,6 +470,15 @@ impl PlannerTask {
         self.lat.set_escape(Some(start));
         if let Some(ex) = &mut self.explore {
             ex.counters.goals_attempted += 1;
+            let at = self.query.order[k].1;
+            tracing::debug!(
+                mode = ?ex.mode(),
+                from_x = self.query.rover[0],
+                from_y = self.query.rover[1],
+                x = at[0],
+                y = at[1],
+                "goal tried"
+            );
         }
         if self.lat.begin_any_heading(self.query.order[k].0).is_err() {
             self.counters.lattice_errors += 1;
@@ -643,6 +652,7 @@ impl PlannerTask {
             return;
         };
         ex.record_verdict(v.outcome, now);
+        tracing::debug!(outcome = ?v.outcome, drive_s = v.drive_s, goal_error_m = v.goal_error_m, "simulated");
         if v.success() {
             let (best, optimal) = self.query.best;
             self.publish(bus, now, best, optimal, true);
