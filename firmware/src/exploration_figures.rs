@@ -43,6 +43,8 @@ pub struct ExplorationFigures {
     /// Going home without a plan from where the rover stood: drives back
     /// along its own track.
     pub retraces: u64,
+    /// Returns home that found something to explore on the way.
+    pub resumes: u64,
     /// Candidate scans, and those that found nothing.
     pub scans: u64,
     pub scans_empty: u64,
@@ -74,6 +76,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         plans_executed: e.counters.plans_executed,
         plans_completed: c.plans_completed,
         retraces: e.counters.retraces,
+        resumes: e.counters.resumes,
         scans: e.counters.scans,
         scans_empty: e.counters.scans_empty,
         safety_stops: StopReason::ALL

@@ -168,6 +168,15 @@ impl Explorer {
         }
     }
 
+    /// Something explorable turned up on the way home after nothing was
+    /// left: explore again. A return for the time limit stays a return.
+    pub fn resume(&mut self) {
+        if self.mode == Mode::Returning(ReturnReason::Explored) {
+            self.mode = Mode::Exploring;
+            self.empty_queries = 0;
+        }
+    }
+
     /// Going home from `at`: goal points `ahead_m`, then a metre less at a
     /// time down to `nearest_m`, back along the track (home itself when
     /// near).
@@ -214,7 +223,17 @@ mod tests {
         assert_eq!(goals.len(), 7);
         // From the earliest track point within 2 m (x = 17), 8 m back.
         assert!((goals[0][0] - 9.0).abs() < 1e-9, "{goals:?}");
+        // A frontier seen on the way: exploring again, until it too is done.
+        e.resume();
+        assert_eq!(e.mode(), Mode::Exploring);
+        for _ in 0..3 {
+            e.query_result(false);
+        }
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
         e.observe(100.0, [0.3, 0.0, 0.2]);
+        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+        // Home is home.
+        e.resume();
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
     }
 
@@ -228,6 +247,8 @@ mod tests {
             [0.0; 3],
         );
         e.observe(11.0, [5.0, 0.0, 0.0]);
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::TimeLimit));
+        e.resume();
         assert_eq!(e.mode(), Mode::Returning(ReturnReason::TimeLimit));
         for k in 0..100 {
             e.reject([k as f64, 0.0]);

@@ -25,6 +25,9 @@ pub struct ExplorationCounters {
     /// or no ground under it, after which it drove back along its own
     /// track.
     pub retraces: u64,
+    /// Returns home that found something explorable on the way and went
+    /// back to exploring.
+    pub resumes: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground).
     pub validations: u64,

@@ -24,7 +24,7 @@ use speleo_planner::surface::{SurfaceLattice, SOLID_PER_CELL};
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
-use speleo_exploration::Mode;
+use speleo_exploration::{Mode, ReturnReason};
 
 use crate::bus::{Bus, PlanMsg};
 use crate::config::PlannerConfig;
@@ -382,7 +382,14 @@ impl PlannerTask {
         let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, angles);
         q.start_state = self.lat.state(s, bin(q.yaw));
         if let Some(ex) = &mut self.explore {
-            if ex.mode() == Mode::Exploring {
+            // Exploring, and on the way home after nothing was left: a
+            // frontier the rover could not reach from where it was may be
+            // reachable from here (a side passage's far end, back at its
+            // junction), so every stop home scans again.
+            if matches!(
+                ex.mode(),
+                Mode::Exploring | Mode::Returning(ReturnReason::Explored)
+            ) {
                 let res = trav.resolution();
                 let window = Window::around(q.rover[0], q.rover[1], self.window_half_m, res);
                 ex.scan
@@ -390,8 +397,14 @@ impl PlannerTask {
                 return Phase::Candidates;
             }
         }
-        // The points found, farthest first; on the route only the farthest
-        // is tried, on the way home each in turn.
+        self.goal_order()
+    }
+
+    /// The goal points found, farthest first: on the route only the
+    /// farthest is tried, on the way home each in turn.
+    fn goal_order(&mut self) -> Phase {
+        let trav = self.lat.trav();
+        let q = &mut self.query;
         q.order_len = 0;
         for k in 0..q.goal_count {
             let Some((g, _)) = q.goal[k] else { continue };
@@ -436,9 +449,24 @@ impl PlannerTask {
         if !done {
             return Phase::Candidates;
         }
-        let best = scan.best();
         counters.scans += 1;
-        explorer.query_result(!best.is_empty());
+        let found = !scan.best().is_empty();
+        if matches!(explorer.mode(), Mode::Returning(_)) {
+            if !found {
+                // Nothing new here either: on home.
+                return self.goal_order();
+            }
+            explorer.resume();
+            counters.resumes += 1;
+            tracing::debug!(
+                x = self.query.rover[0],
+                y = self.query.rover[1],
+                "exploring again"
+            );
+        } else {
+            explorer.query_result(found);
+        }
+        let best = scan.best();
         if best.is_empty() {
             counters.scans_empty += 1;
             ex.no_start();

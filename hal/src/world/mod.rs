@@ -11,6 +11,7 @@ pub mod noise;
 pub mod obj;
 pub mod ply;
 pub mod shapes;
+mod start_pose;
 pub mod stl;
 
 use std::path::Path;
@@ -119,8 +120,8 @@ impl World {
     }
 
     /// A world from a mesh: the floor is every triangle facing up within
-    /// 20 deg of level; the start is on the floor triangle nearest the floor's
-    /// centroid.
+    /// 20 deg of level; the start is on floor with room around it, nearest
+    /// the floor's centroid (`start_pose`).
     pub fn from_mesh(name: &str, mesh: Mesh) -> World {
         let cos_max = WALKABLE_DEG.to_radians().cos();
         let mut area = 0.0;
@@ -140,11 +141,12 @@ impl World {
         if area > 0.0 {
             centroid = centroid.map(|c| c / area);
         }
-        let start = floor_tris
-            .iter()
-            .map(|&t| tri_centre(&mesh, t))
-            .min_by(|a, b| dist2(a, &centroid).total_cmp(&dist2(b, &centroid)))
-            .map_or([0.0; 4], |c| [c[0], c[1], c[2], 0.0]);
+        let mut is_floor = vec![false; mesh.triangles.len()];
+        for &t in &floor_tris {
+            is_floor[t] = true;
+        }
+        let start =
+            start_pose::roomy_start(&mesh, &floor_tris, &is_floor, centroid).unwrap_or([0.0; 4]);
         World {
             name: name.into(),
             mesh,
@@ -159,10 +161,6 @@ impl World {
 fn tri_centre(m: &Mesh, t: usize) -> [f64; 3] {
     let [a, b, c] = m.triangles[t].map(|i| m.vertices[i as usize]);
     [0, 1, 2].map(|k| (a[k] as f64 + b[k] as f64 + c[k] as f64) / 3.0)
-}
-
-fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum()
 }
 
 #[cfg(test)]
