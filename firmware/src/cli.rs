@@ -63,6 +63,26 @@ pub enum Command {
     /// Write the rover's motion primitives (splines, forward and backward,
     /// no point turns) as an SBPL .mprim file.
     Primitives(PrimitivesArgs),
+    /// Run worst-case scenarios through the executive (route, exploration,
+    /// the internal simulator, boulders, garage, a replay) and print each
+    /// task's max, p99 and p99.9 against its budget, pass or fail (p99.9
+    /// within the budget). Exits with status 1 when a task fails.
+    Wcet(WcetArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct WcetArgs {
+    /// One scenario (route, explore, validate, boulders, garage, replay);
+    /// all of them when absent.
+    #[arg(long, value_name = "NAME")]
+    pub scenario: Option<String>,
+    /// Configuration the scenarios start from; values not given keep their
+    /// defaults.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Write every scenario's verdicts as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -378,6 +398,12 @@ pub fn main() -> ExitCode {
         Command::Register(a) => modes::register(a),
         Command::Plan(a) => modes::plan(a),
         Command::Primitives(a) => modes::primitives(a),
+        Command::Wcet(a) => crate::wcet::wcet(
+            a.scenario.as_deref(),
+            a.config.as_ref(),
+            a.report.as_ref(),
+            progress,
+        ),
         Command::Mesh(a) => modes::mesh(a, progress),
     };
     match result {

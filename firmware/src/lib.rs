@@ -20,3 +20,4 @@ pub mod slam_figures;
 pub mod surface_maps;
 pub mod tasks;
 pub mod tools;
+pub mod wcet;

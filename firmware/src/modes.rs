@@ -302,35 +302,7 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     if let Some(w) = &a.world {
         cfg.sim.world = w.clone();
     }
-    cfg.validate()?;
-    let world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
-    if cfg.sim.follow_route && world.route.len() >= 2 {
-        cfg.control.path =
-            route_in_odometry_frame(&world, cfg.sim.out_and_back, cfg.sim.route_length_m);
-        cfg.control.looped = false;
-        cfg.validate()?;
-    }
-    schedule_table::build(&cfg)?;
-    let params = sim_params(&cfg);
-    let mut hw = SimHardware::with_world(&params, &world)?;
-    let truth = hw.truth_probe();
-    let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
-    let mut meta = run_metadata(&cfg, "sim", epoch_ns);
-    meta.insert("seed".into(), cfg.sim.seed.to_string());
-    meta.insert("world".into(), cfg.sim.world.clone());
-    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, None, true)?;
-    let mut result = session.drive(
-        &cfg,
-        Length::Frames(frames_for(&cfg, cfg.sim.duration_s)),
-        virtual_enforcement(&cfg),
-        Some(truth),
-        &AtomicBool::new(false),
-        &mut hw,
-        VirtualClock::new(cfg.executive.minor_frame_us),
-        progress,
-    )?;
-    finish_maps(&cfg, &a.out, &mut result)?;
-    exploration_truth(&cfg, &world, hw.collisions(), &mut result)?;
+    let result = simulate(&mut cfg, &a.out, progress)?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
     if let Some(path) = &a.trajectory {
         let rows = result.slam.as_ref().map_or(&[][..], |s| &s.trajectory);
@@ -342,6 +314,46 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     }
     print_summary(&result);
     Ok(ExitCode::SUCCESS)
+}
+
+/// A simulated mission as `cfg` describes it (its world, seed and
+/// duration), with the outputs `out` asks for; the maps finished and the
+/// exploration's ground-truth figures filled in.
+pub(crate) fn simulate(
+    cfg: &mut Config,
+    out: &Outputs,
+    progress: bool,
+) -> Result<MissionResult, Error> {
+    cfg.validate()?;
+    let world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
+    if cfg.sim.follow_route && world.route.len() >= 2 {
+        cfg.control.path =
+            route_in_odometry_frame(&world, cfg.sim.out_and_back, cfg.sim.route_length_m);
+        cfg.control.looped = false;
+        cfg.validate()?;
+    }
+    schedule_table::build(cfg)?;
+    let params = sim_params(cfg);
+    let mut hw = SimHardware::with_world(&params, &world)?;
+    let truth = hw.truth_probe();
+    let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
+    let mut meta = run_metadata(cfg, "sim", epoch_ns);
+    meta.insert("seed".into(), cfg.sim.seed.to_string());
+    meta.insert("world".into(), cfg.sim.world.clone());
+    let mut session = Session::open(out, cfg, meta, epoch_ns, None, true)?;
+    let mut result = session.drive(
+        cfg,
+        Length::Frames(frames_for(cfg, cfg.sim.duration_s)),
+        virtual_enforcement(cfg),
+        Some(truth),
+        &AtomicBool::new(false),
+        &mut hw,
+        VirtualClock::new(cfg.executive.minor_frame_us),
+        progress,
+    )?;
+    finish_maps(cfg, out, &mut result)?;
+    exploration_truth(cfg, &world, hw.collisions(), &mut result)?;
+    Ok(result)
 }
 
 /// The explored graph and the tracks, in the world frame when the map
@@ -484,69 +496,33 @@ fn route_in_odometry_frame(
 }
 
 pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
-    let rec = read::load(&a.log)?;
-    let cfg_text = rec
-        .run
-        .get("config")
-        .ok_or_else(|| format!("{}: the recording holds no configuration", a.log.display()))?;
-    let cfg = Config::from_toml(cfg_text)
-        .map_err(|e| format!("{}: recorded configuration: {e}", a.log.display()))?;
-    let Some(last) = rec.last_complete_frame() else {
-        return Err(format!("{}: no complete frame to replay", a.log.display()).into());
-    };
-    if let Some(why) = &rec.truncated {
-        eprintln!(
-            "note: {} ends early ({why}); replaying frames 0 to {last}",
-            a.log.display()
-        );
-    }
-    let epoch_ns = rec.epoch_ns();
-    let truncated = rec.truncated.is_some();
-    let mut meta = run_metadata(&cfg, "replay", epoch_ns);
-    meta.insert("source".into(), a.log.display().to_string());
-    // An imported capture has raw inputs only: nothing to compare with.
-    let imported = rec.run.get("mode").map(String::as_str) == Some("import");
-    let comparer = (!imported).then(|| {
-        Comparer::new(
-            rec.expected,
-            last,
-            mission::cloud_message_capacity(cfg.lidar.max_points_per_frame),
-        )
-    });
-    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, comparer, true)?;
-    let mut result = session.replay(&cfg, rec.inputs, last, progress)?;
-    let (divergence, compared) = {
-        let t = session.tap.borrow();
-        let c = t.comparer();
-        (c.and_then(|c| c.describe()), c.map_or(0, |c| c.compared))
-    };
-    finish_maps(&cfg, &a.out, &mut result)?;
+    let r = replay_recording(&a.log, &a.out, progress)?;
     write_report(
         a.out.report.as_deref(),
         "replay",
-        &result,
+        &r.result,
         Some(ReplayReport {
-            identical: divergence.is_none(),
-            compared_messages: compared,
-            last_frame_compared: last,
-            recording_truncated: truncated,
-            divergence: divergence.clone(),
+            identical: r.divergence.is_none(),
+            compared_messages: r.compared,
+            last_frame_compared: r.last,
+            recording_truncated: r.truncated,
+            divergence: r.divergence.clone(),
         }),
     )?;
-    if imported {
+    if r.imported {
         println!(
             "replayed {} frames of an imported capture (it holds no outputs to compare)",
-            result.frames
+            r.result.frames
         );
-        print_summary(&result);
+        print_summary(&r.result);
         return Ok(ExitCode::SUCCESS);
     }
-    match divergence {
+    match r.divergence {
         None => {
             println!("identical");
             tracing::info!(
-                frames = result.frames,
-                compared,
+                frames = r.result.frames,
+                compared = r.compared,
                 "every output matches the recording"
             );
             Ok(ExitCode::SUCCESS)
@@ -556,6 +532,71 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
             Ok(ExitCode::FAILURE)
         }
     }
+}
+
+/// What a replay found.
+pub(crate) struct Replayed {
+    pub result: MissionResult,
+    /// The first output that differs from the recording's.
+    pub divergence: Option<String>,
+    pub compared: u64,
+    pub last: u64,
+    pub truncated: bool,
+    /// An imported capture: raw inputs only, nothing to compare.
+    pub imported: bool,
+}
+
+/// Feed a recording's raw inputs through the drivers and tasks with the
+/// recorded configuration, and compare every output with the recording's.
+pub(crate) fn replay_recording(
+    log: &std::path::Path,
+    out: &Outputs,
+    progress: bool,
+) -> Result<Replayed, Error> {
+    let rec = read::load(log)?;
+    let cfg_text = rec
+        .run
+        .get("config")
+        .ok_or_else(|| format!("{}: the recording holds no configuration", log.display()))?;
+    let cfg = Config::from_toml(cfg_text)
+        .map_err(|e| format!("{}: recorded configuration: {e}", log.display()))?;
+    let Some(last) = rec.last_complete_frame() else {
+        return Err(format!("{}: no complete frame to replay", log.display()).into());
+    };
+    if let Some(why) = &rec.truncated {
+        eprintln!(
+            "note: {} ends early ({why}); replaying frames 0 to {last}",
+            log.display()
+        );
+    }
+    let epoch_ns = rec.epoch_ns();
+    let truncated = rec.truncated.is_some();
+    let mut meta = run_metadata(&cfg, "replay", epoch_ns);
+    meta.insert("source".into(), log.display().to_string());
+    let imported = rec.run.get("mode").map(String::as_str) == Some("import");
+    let comparer = (!imported).then(|| {
+        Comparer::new(
+            rec.expected,
+            last,
+            mission::cloud_message_capacity(cfg.lidar.max_points_per_frame),
+        )
+    });
+    let mut session = Session::open(out, &cfg, meta, epoch_ns, comparer, true)?;
+    let mut result = session.replay(&cfg, rec.inputs, last, progress)?;
+    let (divergence, compared) = {
+        let t = session.tap.borrow();
+        let c = t.comparer();
+        (c.and_then(|c| c.describe()), c.map_or(0, |c| c.compared))
+    };
+    finish_maps(&cfg, out, &mut result)?;
+    Ok(Replayed {
+        result,
+        divergence,
+        compared,
+        last,
+        truncated,
+        imported,
+    })
 }
 
 /// `speleo mesh`: from PLY scans with KITTI poses, or from a recording's

@@ -1,0 +1,302 @@
+//! `speleo wcet`: worst-case scenarios run through the executive, and each
+//! periodic task's execution times on this machine against its budget.
+//!
+//! The scenarios load the tasks where they work hardest: the route mission
+//! (drivers, odometry, SLAM keyframes, maps, planner queries along the
+//! route), exploration (candidate scans and queries one after another),
+//! exploration with every plan driven in the internal simulator first,
+//! the boulder field (the most obstacles the planner checks bodies
+//! against), the garage (concrete walls and slabs all around: the densest
+//! LiDAR returns) and the replay of a recorded route mission.
+//!
+//! A task passes when its p99.9 is within its budget. Its maximum is
+//! printed beside it but not judged: on a shared Linux machine without
+//! real-time priority it includes preemptions by other processes.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use serde::Serialize;
+
+use crate::cli::Outputs;
+use crate::config::Config;
+use crate::mission::{MissionResult, TaskFigures};
+
+type Error = Box<dyn std::error::Error>;
+
+/// One worst-case scenario.
+pub struct Scenario {
+    pub name: &'static str,
+    pub about: &'static str,
+    world: &'static str,
+    duration_s: f64,
+    configure: fn(&mut Config),
+    /// Recorded, then replayed; the replay's times are judged.
+    replay: bool,
+}
+
+fn route(_: &mut Config) {}
+
+fn explore(c: &mut Config) {
+    c.exploration.enabled = true;
+}
+
+fn explore_and_validate(c: &mut Config) {
+    c.exploration.enabled = true;
+    c.simulator.enabled = true;
+}
+
+pub const SCENARIOS: [Scenario; 6] = [
+    Scenario {
+        name: "route",
+        about: "the lava tube's route: every task of the default mission",
+        world: "lava-tube",
+        duration_s: 300.0,
+        configure: route,
+        replay: false,
+    },
+    Scenario {
+        name: "explore",
+        about: "the short tube explored: candidate scans and queries back to back",
+        world: "short-tube",
+        duration_s: 300.0,
+        configure: explore,
+        replay: false,
+    },
+    Scenario {
+        name: "validate",
+        about: "the short tube explored, every plan driven in the internal simulator first",
+        world: "short-tube",
+        duration_s: 300.0,
+        configure: explore_and_validate,
+        replay: false,
+    },
+    Scenario {
+        name: "boulders",
+        about: "the boulder field explored: the most obstacles around the body checks",
+        world: "boulders",
+        duration_s: 200.0,
+        configure: explore,
+        replay: false,
+    },
+    Scenario {
+        name: "garage",
+        about: "the garage explored: walls, slabs and roofs all around, the densest returns",
+        world: "garage",
+        duration_s: 200.0,
+        configure: explore,
+        replay: false,
+    },
+    Scenario {
+        name: "replay",
+        about: "a recorded route mission replayed through the drivers and tasks",
+        world: "lava-tube",
+        duration_s: 120.0,
+        configure: route,
+        replay: true,
+    },
+];
+
+#[derive(Debug, Serialize)]
+pub struct TaskVerdict {
+    pub name: String,
+    pub budget_us: u32,
+    pub runs: u64,
+    pub max_us: f64,
+    pub p99_us: f64,
+    pub p999_us: f64,
+    pub overruns: u64,
+    pub pass: bool,
+}
+
+#[derive(Debug, Serialize)]
+pub struct ScenarioReport {
+    pub name: String,
+    pub about: String,
+    pub world: String,
+    pub sim_time_s: f64,
+    pub wall_time_s: f64,
+    pub tasks: Vec<TaskVerdict>,
+    pub pass: bool,
+}
+
+#[derive(Debug, Serialize)]
+pub struct WcetReport {
+    pub criterion: &'static str,
+    pub scenarios: Vec<ScenarioReport>,
+    pub pass: bool,
+}
+
+/// The verdict on one run's task times.
+pub fn judge(s: &Scenario, r: &MissionResult) -> ScenarioReport {
+    let tasks = verdicts(&r.tasks);
+    ScenarioReport {
+        name: s.name.into(),
+        about: s.about.into(),
+        world: s.world.into(),
+        sim_time_s: r.sim_time_s,
+        wall_time_s: r.wall_time_s,
+        pass: tasks.iter().all(|t| t.pass),
+        tasks,
+    }
+}
+
+/// Each task's times against its budget.
+pub fn verdicts(tasks: &[TaskFigures]) -> Vec<TaskVerdict> {
+    tasks
+        .iter()
+        .map(|t| TaskVerdict {
+            name: t.name.clone(),
+            budget_us: t.budget_us,
+            runs: t.runs,
+            max_us: t.max_us,
+            p99_us: t.p99_us,
+            p999_us: t.p999_us,
+            overruns: t.overruns,
+            pass: t.runs == 0 || t.p999_us <= t.budget_us as f64,
+        })
+        .collect()
+}
+
+fn run_scenario(s: &Scenario, base: &Config, progress: bool) -> Result<ScenarioReport, Error> {
+    let mut cfg = base.clone();
+    cfg.sim.world = s.world.into();
+    cfg.sim.duration_s = s.duration_s;
+    (s.configure)(&mut cfg);
+    if !s.replay {
+        let r = crate::modes::simulate(&mut cfg, &Outputs::default(), progress)?;
+        return Ok(judge(s, &r));
+    }
+    let dir = std::env::temp_dir().join(format!("speleo-wcet-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let log = dir.join("route.mcap");
+    let recorded = Outputs {
+        record: Some(log.clone()),
+        ..Outputs::default()
+    };
+    crate::modes::simulate(&mut cfg, &recorded, progress)?;
+    let replayed = crate::modes::replay_recording(&log, &Outputs::default(), progress);
+    let _ = std::fs::remove_dir_all(&dir);
+    let r = replayed?;
+    if let Some(d) = r.divergence {
+        return Err(format!("the replay diverged from its recording: {d}").into());
+    }
+    Ok(judge(s, &r.result))
+}
+
+fn print(s: &ScenarioReport) {
+    println!(
+        "{} ({}, {:.0} s simulated in {:.0} s): {}",
+        s.name,
+        s.world,
+        s.sim_time_s,
+        s.wall_time_s,
+        if s.pass { "pass" } else { "FAIL" }
+    );
+    println!(
+        "  {:<13} {:>8} {:>9} {:>9} {:>9} {:>9}  verdict",
+        "task", "budget", "max", "p99", "p99.9", "overruns"
+    );
+    for t in &s.tasks {
+        println!(
+            "  {:<13} {:>6}us {:>7.0}us {:>7.0}us {:>7.0}us {:>9}  {}",
+            t.name,
+            t.budget_us,
+            t.max_us,
+            t.p99_us,
+            t.p999_us,
+            t.overruns,
+            if t.pass { "pass" } else { "FAIL" }
+        );
+    }
+}
+
+/// `speleo wcet`.
+pub fn wcet(
+    scenario: Option<&str>,
+    config: Option<&PathBuf>,
+    report: Option<&PathBuf>,
+    progress: bool,
+) -> Result<ExitCode, Error> {
+    let base = match config {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    };
+    let chosen: Vec<&Scenario> = match scenario {
+        None => SCENARIOS.iter().collect(),
+        Some(n) => {
+            let s = SCENARIOS.iter().find(|s| s.name == n).ok_or_else(|| {
+                let names: Vec<_> = SCENARIOS.iter().map(|s| s.name).collect();
+                format!("no scenario \"{n}\" (scenarios: {})", names.join(", "))
+            })?;
+            vec![s]
+        }
+    };
+    let mut scenarios = Vec::new();
+    for s in chosen {
+        let r = run_scenario(s, &base, progress)?;
+        print(&r);
+        scenarios.push(r);
+    }
+    let out = WcetReport {
+        criterion: "p99.9 within the budget",
+        pass: scenarios.iter().all(|s| s.pass),
+        scenarios,
+    };
+    if let Some(p) = report {
+        crate::report::write_json(p, &out)?;
+    }
+    println!("wcet: {}", if out.pass { "pass" } else { "FAIL" });
+    Ok(if out.pass {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn task(p999_us: f64, max_us: f64, runs: u64) -> TaskFigures {
+        TaskFigures {
+            name: "maps".into(),
+            period_us: 20_000,
+            budget_us: 900,
+            policy: "skip".into(),
+            runs,
+            max_us,
+            p50_us: 100.0,
+            p99_us: p999_us,
+            p999_us,
+            overruns: 0,
+            skipped: 0,
+            allocations: 0,
+        }
+    }
+
+    #[test]
+    fn a_task_passes_on_its_p999_and_not_its_max() {
+        let v = verdicts(&[
+            task(850.0, 5_000.0, 100),
+            task(950.0, 950.0, 100),
+            task(0.0, 0.0, 0),
+        ]);
+        assert_eq!(
+            v.iter().map(|t| t.pass).collect::<Vec<_>>(),
+            [true, false, true]
+        );
+    }
+
+    #[test]
+    fn scenario_names_are_unique_and_their_worlds_exist() {
+        for (i, s) in SCENARIOS.iter().enumerate() {
+            assert!(
+                SCENARIOS[..i].iter().all(|o| o.name != s.name),
+                "{}",
+                s.name
+            );
+            assert!(speleo_hal::world::NAMES.contains(&s.world), "{}", s.world);
+        }
+    }
+}
