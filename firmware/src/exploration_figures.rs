@@ -31,6 +31,10 @@ pub struct ExplorationFigures {
     pub home_error_m: Option<f64>,
     pub distance_m: Option<f64>,
     pub collisions: Option<u64>,
+    /// Highest and lowest the rover went over and under home (SLAM), m:
+    /// the levels reached in a multi-level world.
+    pub climbed_m: f64,
+    pub descended_m: f64,
     /// Goals planned to (candidates and points on the way home), those
     /// with no path, those whose plan the internal simulator passed and
     /// refused, and plans driven.
@@ -77,6 +81,8 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         plans_completed: c.plans_completed,
         retraces: e.counters.retraces,
         resumes: e.counters.resumes,
+        climbed_m: e.climbed_m,
+        descended_m: e.descended_m,
         scans: e.counters.scans,
         scans_empty: e.counters.scans_empty,
         safety_stops: StopReason::ALL

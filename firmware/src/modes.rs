@@ -221,7 +221,7 @@ fn print_summary(r: &MissionResult) {
         let opt =
             |v: Option<f64>, unit: &str| v.map_or("-".to_string(), |v| format!("{v:.2}{unit}"));
         eprintln!(
-            "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {} collisions",
+            "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {:.1} m up and {:.1} m down, {} collisions",
             e.state,
             e.return_reason.as_ref().map_or(String::new(), |r| format!(" ({r})")),
             e.explored_area_m2,
@@ -230,6 +230,8 @@ fn print_summary(r: &MissionResult) {
             e.goals_attempted,
             opt(e.home_error_m, " m"),
             opt(e.distance_m, " m"),
+            e.climbed_m,
+            e.descended_m,
             e.collisions.map_or("-".to_string(), |c| c.to_string()),
         );
     }

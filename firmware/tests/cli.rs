@@ -104,12 +104,12 @@ fn a_budget_that_cannot_fit_is_refused_with_frame_and_tasks() {
     assert!(e.contains("recorder 8000 us"), "{e}");
 }
 
-#[test]
-fn a_recording_whose_process_was_killed_replays_up_to_its_last_chunk() {
-    let d = tempfile::tempdir().expect("tmp");
-    let cfg = d.path().join("small-chunks.toml");
+/// Record a simulated mission with small chunks and SIGKILL it once the
+/// file has grown past `kill_at` bytes; the recording's path.
+fn killed_recording(dir: &Path, name: &str, kill_at: u64) -> std::path::PathBuf {
+    let cfg = dir.join("small-chunks.toml");
     std::fs::write(&cfg, "[record]\nchunk_size_kib = 32\n").expect("write");
-    let log = d.path().join("killed.mcap");
+    let log = dir.join(name);
     let mut child = Command::new(env!("CARGO_BIN_EXE_speleo"))
         .args(["sim", "--no-progress", "--duration", "100000", "--config"])
         .arg(&cfg)
@@ -120,18 +120,24 @@ fn a_recording_whose_process_was_killed_replays_up_to_its_last_chunk() {
         .spawn()
         .expect("spawn");
     let start = Instant::now();
-    // Past the first second of LiDAR data (about 3 MB a simulated second).
-    while std::fs::metadata(&log).map_or(0, |m| m.len()) < 5_000_000 {
+    while std::fs::metadata(&log).map_or(0, |m| m.len()) < kill_at {
         assert!(
             start.elapsed() < Duration::from_secs(120),
             "recording did not grow"
         );
-        std::thread::sleep(Duration::from_millis(20));
+        std::thread::sleep(Duration::from_millis(5));
     }
     child.kill().expect("SIGKILL");
     let status = child.wait().expect("wait");
     assert!(!status.success());
+    log
+}
 
+#[test]
+fn a_recording_whose_process_was_killed_replays_up_to_its_last_chunk() {
+    let d = tempfile::tempdir().expect("tmp");
+    // Past the first second of LiDAR data (about 3 MB a simulated second).
+    let log = killed_recording(d.path(), "killed.mcap", 5_000_000);
     let report = d.path().join("r.json");
     let out = speleo(&[
         "replay",
@@ -155,6 +161,38 @@ fn a_recording_whose_process_was_killed_replays_up_to_its_last_chunk() {
         serde_json::from_str(&std::fs::read_to_string(&report).expect("report")).expect("json");
     assert_eq!(v["replay"]["recording_truncated"], true);
     assert!(v["frames"].as_u64().unwrap_or(0) > 100, "{v}");
+}
+
+#[test]
+fn a_recording_killed_at_random_moments_replays_what_it_holds_or_says_why_not() {
+    // Kill points from a fixed seed, from before the first chunk is out
+    // to a few chunks in; each kill lands wherever the writer happens to
+    // be (a chunk half written, the summary never started).
+    let d = tempfile::tempdir().expect("tmp");
+    let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+    for k in 0..4 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        // The first as soon as the file exists.
+        let kill_at = if k == 0 { 1 } else { 1 + x % 2_500_000 };
+        let log = killed_recording(d.path(), &format!("killed{k}.mcap"), kill_at);
+        let out = speleo(&["replay", log.to_str().expect("utf8")]);
+        let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+        assert!(
+            !stderr.contains("panicked"),
+            "kill at {kill_at} B: {stderr}"
+        );
+        if out.status.success() {
+            assert_eq!(stdout.trim(), "identical", "kill at {kill_at} B: {stderr}");
+        } else {
+            // Too early for a whole frame: a clear refusal.
+            assert!(
+                stderr.contains("no complete frame") || stderr.contains("nothing to replay"),
+                "kill at {kill_at} B: {stdout}{stderr}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -5,6 +5,12 @@ use serde::{Deserialize, Serialize};
 
 use super::{range, ConfigError};
 
+/// The checked rectangle is the body (0.9 x 0.7 m) with this much all
+/// round, m: the follower strays from the path by a few centimetres (more
+/// backing up), and on the lava tube a rover planned to pass a 0.2 m rock
+/// at the body's very edge backed onto it and was stranded.
+const BODY_MARGIN_M: f64 = 0.05;
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlannerConfig {
@@ -65,8 +71,8 @@ impl Default for PlannerConfig {
             forward_speed_mps: s.forward_speed_mps,
             backward_speed_mps: s.backward_speed_mps,
             turn_speed_rad_s: s.turn_speed_rad_s,
-            body_length_m: s.body_length_m,
-            body_width_m: s.body_width_m,
+            body_length_m: s.body_length_m + 2.0 * BODY_MARGIN_M,
+            body_width_m: s.body_width_m + 2.0 * BODY_MARGIN_M,
             clearance_weight: s.clearance_weight,
             mprim: String::new(),
         }

@@ -39,6 +39,10 @@ pub enum ReadError {
     },
     #[error("{path} was not written by speleo (no speleo.run metadata)")]
     NotSpeleo { path: String },
+    #[error(
+        "{path} ends before its first chunk (its process was stopped at once?): nothing to replay"
+    )]
+    NothingRecorded { path: String },
 }
 
 pub struct Recording {
@@ -230,6 +234,11 @@ pub fn load(path: &Path) -> Result<Recording, ReadError> {
         }
     }
     if rec.run.is_empty() {
+        // The run's metadata goes out with the first chunk: a file cut
+        // short before it holds nothing.
+        if rec.truncated.is_some() {
+            return Err(ReadError::NothingRecorded { path: p });
+        }
         return Err(ReadError::NotSpeleo { path: p });
     }
     Ok(rec)

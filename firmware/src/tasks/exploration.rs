@@ -79,6 +79,9 @@ pub struct Exploration {
     /// The last query found no plan from where the rover stands (no
     /// ground under it, or on the way home no path).
     stranded: bool,
+    /// Highest and lowest the rover has been over home (SLAM), m.
+    pub climbed_m: f64,
+    pub descended_m: f64,
 }
 
 impl Exploration {
@@ -113,6 +116,8 @@ impl Exploration {
             validation_ms: Vec::with_capacity(HISTORY),
             prediction_rmse_m: Vec::with_capacity(HISTORY),
             stranded: false,
+            climbed_m: 0.0,
+            descended_m: 0.0,
         }
     }
 
@@ -280,6 +285,9 @@ impl Exploration {
             }
             // Coverage and track change only as the rover moves.
             let moved = (p[0] - self.last_observed[0]).hypot(p[1] - self.last_observed[1]);
+            let dz = p[2] - self.explorer.home()[2];
+            self.climbed_m = self.climbed_m.max(dz);
+            self.descended_m = self.descended_m.max(-dz);
             if moved >= 0.1 || now % 1_000_000_000 < 1_000_000 {
                 self.explorer.observe(now as f64 * 1e-9, p);
                 self.last_observed = [p[0], p[1]];
