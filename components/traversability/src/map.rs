@@ -408,17 +408,27 @@ impl TravMap {
         self.support.clear();
         self.heights.clear();
         self.heights.resize(side * side, f32::NAN);
+        let mut raised = false;
         for dy in -reach..=reach {
             for dx in -reach..=reach {
                 if ((dx * dx + dy * dy) as f64) > r2 {
                     continue;
                 }
                 let (x, y) = (cx + dx as f64 * res, cy + dy as f64 * res);
-                if let Some(g) = ground_patch(mls.cell(n.ix + dx, n.iy + dy), n.patch_z, band) {
+                let cell = mls.cell(n.ix + dx, n.iy + dy);
+                if let Some(g) = ground_patch(cell, n.patch_z, band) {
                     if self.support.len() < self.support.capacity() {
                         self.support.push([x, y, g.mean as f64]);
                         self.heights[(dy + reach) as usize * side + (dx + reach) as usize] = g.mean;
                     }
+                } else {
+                    // Ground too high to be this one's continuation, under
+                    // the body: a ledge the wheels meet.
+                    raised |= cell.iter().any(|q| {
+                        q.kind == PatchKind::Horizontal
+                            && q.mean > n.patch_z + band
+                            && q.mean <= n.patch_z + p.robot_height_m
+                    });
                 }
             }
         }
@@ -436,7 +446,7 @@ impl TravMap {
         };
         let step = has_step(&self.heights, side, p.max_step_m);
         let steep = pl.slope_deg() > p.max_slope_deg;
-        let blocked = steep || step || self.body_hits(mls, n.ix, n.iy, &pl);
+        let blocked = steep || step || raised || self.body_hits(mls, n.ix, n.iy, &pl);
         let node = &mut self.nodes[i as usize];
         node.ground_z = pl.z_at(cx, cy) as f32;
         node.slope_deg = pl.slope_deg() as f32;

@@ -35,16 +35,18 @@ impl Default for TravParams {
     /// The simulated Asguard-like rover: 0.52 m wheelbase and track, 0.19 m
     /// leg-wheels (about 0.9 x 0.7 m), the chassis' underside 0.12 m over
     /// the ground on its hubs (0.08 m when two legs stand), the LiDAR on top
-    /// at 0.6 m. The body band starts at 0.15 m: a rock of 0.2 m under the
-    /// chassis strands the rover on it (the simulated lava tube's m80).
+    /// at 0.6 m. The body band starts at the underside, 0.12 m: rocks of
+    /// 0.14 to 0.22 m under the chassis stranded the exploring rover in the
+    /// simulated lava tube (at m80 and m100), and steps up to 0.1 m are
+    /// climbed (the leg-wheels climb 0.2 m, the belly must clear them).
     fn default() -> Self {
         TravParams {
             max_slope_deg: 25.0,
-            max_step_m: 0.12,
+            max_step_m: 0.10,
             max_gap_m: 0.6,
             footprint_radius_m: 0.4,
             inscribed_radius_m: 0.3,
-            ground_clearance_m: 0.15,
+            ground_clearance_m: 0.12,
             robot_height_m: 0.7,
             min_inliers: 5,
             inlier_distance_m: 0.04,
