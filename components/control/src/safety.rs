@@ -144,17 +144,14 @@ pub struct SafetyMonitor {
     start_tilt_deg: Option<f64>,
     /// Where the rover stood at the last reset (a plan's start).
     start_xy: Option<[f64; 2]>,
-    /// The lowest tilt since the rover went over the limit, kept across
-    /// plans until it is back under: each new plan may not start a little
-    /// steeper than the last stopped (a rover in the garage was walked up a
-    /// ramp's side 3 degrees a plan, until it turned over).
-    over_limit_min_deg: Option<f64>,
 }
 
 /// A rover already tilted beyond the limit (stopped there) may move as
 /// long as the tilt does not grow by more than this, deg: it can only get
 /// off the slope by moving.
 const TILT_GROWTH_DEG: f64 = 2.0;
+/// Beyond the tilt limit by this much, the rover does not move at all, deg.
+const TILT_HARD_MARGIN_DEG: f64 = 12.0;
 
 impl SafetyMonitor {
     pub fn new(p: SafetyParams) -> Self {
@@ -163,7 +160,6 @@ impl SafetyMonitor {
             anchor: None,
             start_tilt_deg: None,
             start_xy: None,
-            over_limit_min_deg: None,
         }
     }
 
@@ -182,18 +178,13 @@ impl SafetyMonitor {
     pub fn check(&mut self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
         let start = *self.start_tilt_deg.get_or_insert(s.tilt_deg);
         self.start_xy.get_or_insert([s.position[0], s.position[1]]);
-        if s.tilt_deg <= self.p.max_tilt_deg {
-            self.over_limit_min_deg = None;
-        } else {
-            let low = self
-                .over_limit_min_deg
-                .map_or(s.tilt_deg, |m| m.min(s.tilt_deg));
-            self.over_limit_min_deg = Some(low);
-            // Over the limit: only a plan that began over it may go on,
-            // and only while the tilt does not grow.
-            if start <= self.p.max_tilt_deg || s.tilt_deg > low + TILT_GROWTH_DEG {
-                return Some(StopReason::Tilt);
-            }
+        // Over the limit, a plan that began there may go on while the tilt
+        // does not grow (off the slope); past the hard limit nothing moves
+        // (in the garage, plan after plan each walked the rover a few
+        // degrees further up a ramp's side, until it turned over).
+        let hard = self.p.max_tilt_deg + TILT_HARD_MARGIN_DEG;
+        if s.tilt_deg > hard || s.tilt_deg > self.p.max_tilt_deg.max(start + TILT_GROWTH_DEG) {
+            return Some(StopReason::Tilt);
         }
         if self.stuck(s) {
             return Some(StopReason::Stuck);
@@ -406,19 +397,17 @@ mod tests {
         assert_eq!(m.check(&s, &flat), None);
         s.tilt_deg = 33.0;
         assert_eq!(m.check(&s, &flat), None);
-        s.tilt_deg = 35.5;
+        s.tilt_deg = 37.5;
         assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
-        // Nor by a new plan from a little steeper each time: the lowest
-        // tilt since going over the limit is remembered across plans.
+        // Nor, plan after plan, past the hard limit.
         m.reset();
-        s.tilt_deg = 36.0;
+        s.tilt_deg = 41.0;
+        assert_eq!(m.check(&s, &flat), None);
+        s.tilt_deg = 42.5;
         assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
         m.reset();
-        s.tilt_deg = 34.0;
-        assert_eq!(m.check(&s, &flat), None);
-        // Back under the limit, it is forgotten.
-        s.tilt_deg = 10.0;
-        assert_eq!(m.check(&s, &flat), None);
+        s.tilt_deg = 42.5;
+        assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
         m.reset();
         let mut s = input(0.0, 0.0);
         s.cross_track_m = 1.0;

@@ -79,8 +79,6 @@ const RING: usize = 40;
 /// Where the floor cuts the ellipse (fraction of the vertical radius below
 /// the centre).
 const FLOOR_CUT: f64 = 0.55;
-/// The main tube is level this far on both sides of the junction, m.
-const JUNCTION_LEVEL_M: f64 = 8.0;
 /// A branch's slope eases in over its first metres.
 const BRANCH_LEVEL_M: f64 = 5.0;
 
@@ -124,15 +122,6 @@ fn centreline(
             } else if s < e + 5.0 {
                 let t = (s - e) / 5.0;
                 slope = -p.entrance_slope_deg.to_radians() * (1.0 - t) + slope * t;
-            }
-            // Level where the branch leaves: its floor leaves level at the
-            // main floor's height, and along a sloping main tube the mouth
-            // (several metres long, the branch leaving at an angle) left
-            // steps of up to 0.36 m and a gap between the two floors.
-            let d = (s - p.branch_at * p.length_m).abs();
-            if d < JUNCTION_LEVEL_M {
-                let t = d / JUNCTION_LEVEL_M;
-                slope *= t * t * (3.0 - 2.0 * t);
             }
             let sq = p.squeeze_at * p.length_m;
             let half = 0.5 * p.squeeze_length_m + 3.0;
