@@ -72,8 +72,8 @@ enum Phase {
     Done,
 }
 
-/// Work units, sized as the planner's (~30 us each; a 1 ms window holds
-/// 32) from `benches/validation_phases.rs` on the short tube: 256 points
+/// Work units, sized as the planner's (~30-40 us each; a 1 ms window holds
+/// 24) from `benches/validation_phases.rs` on the short tube: 256 points
 /// integrated (~31 us), a 0.5 m tile meshed and added to the world (median
 /// ~0.2 ms, p90 ~0.45 ms), a physics step (~190 us).
 const POINTS_PER_UNIT: usize = 256;
