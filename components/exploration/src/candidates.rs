@@ -170,7 +170,7 @@ impl CandidateScan {
         }
         let p = trav.position(n);
         let d = (p[0] - self.rover[0]).hypot(p[1] - self.rover[1]);
-        if d < self.p.min_distance_m || coverage.covered(p[0], p[1]) {
+        if d < self.p.min_distance_m || coverage.covered(p[0], p[1], p[2]) {
             return None;
         }
         let r2 = self.p.rejected_radius_m.powi(2);

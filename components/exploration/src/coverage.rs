@@ -2,6 +2,11 @@
 //! are not exploration candidates, so that a border of the map the LiDAR
 //! cannot see past (a cliff's edge seen from above) is not tried forever.
 //! A fixed bit grid around the start: its memory is taken once.
+//!
+//! Heights are kept too, coarsely: each metre cell holds the lowest and
+//! highest the rover stood where it marked it, and a point is covered only
+//! within `LEVEL_BAND_M` of that span. In a garage, driving under a ramp
+//! must not cover the ramp's upper part, nor level 0 cover level 1.
 
 #[derive(Clone, Debug)]
 pub struct CoverageMap {
@@ -11,19 +16,32 @@ pub struct CoverageMap {
     side: usize,
     bits: Vec<u64>,
     covered: usize,
+    /// Per `LEVEL_CELL_M` cell: the lowest and highest rover height that
+    /// marked it, cm (empty: low > high).
+    levels: Vec<(i16, i16)>,
+    level_side: usize,
 }
+
+/// Side of a height cell, m.
+const LEVEL_CELL_M: f64 = 1.0;
+/// A point this far over or under the heights the rover marked it from is
+/// on another level: not covered, m.
+pub const LEVEL_BAND_M: f64 = 1.5;
 
 impl CoverageMap {
     /// A square of `extent_m` around `centre`, in cells of `resolution_m`.
     pub fn new(centre: [f64; 2], extent_m: f64, resolution_m: f64) -> Self {
         let side = (extent_m / resolution_m).ceil().max(1.0) as usize;
         let half = side as f64 * resolution_m / 2.0;
+        let level_side = (side as f64 * resolution_m / LEVEL_CELL_M).ceil().max(1.0) as usize;
         CoverageMap {
             resolution: resolution_m,
             origin: [centre[0] - half, centre[1] - half],
             side,
             bits: vec![0; (side * side).div_ceil(64)],
             covered: 0,
+            levels: vec![(i16::MAX, i16::MIN); level_side * level_side],
+            level_side,
         }
     }
 
@@ -39,8 +57,29 @@ impl CoverageMap {
         )
     }
 
-    /// Mark every cell whose centre is within `radius_m` of (x, y).
-    pub fn mark(&mut self, x: f64, y: f64, radius_m: f64) {
+    fn level_index(&self, x: f64, y: f64) -> Option<usize> {
+        let ix = ((x - self.origin[0]) / LEVEL_CELL_M).floor() as i64;
+        let iy = ((y - self.origin[1]) / LEVEL_CELL_M).floor() as i64;
+        let s = self.level_side as i64;
+        (ix >= 0 && iy >= 0 && ix < s && iy < s).then(|| (iy * s + ix) as usize)
+    }
+
+    /// Mark every cell whose centre is within `radius_m` of (x, y), seen
+    /// by the rover at height `z`.
+    pub fn mark(&mut self, x: f64, y: f64, z: f64, radius_m: f64) {
+        let zc = (z * 100.0)
+            .round()
+            .clamp(i16::MIN as f64 + 1.0, i16::MAX as f64 - 1.0) as i16;
+        let reach = (radius_m / LEVEL_CELL_M).ceil() as i64;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                let (px, py) = (x + dx as f64 * LEVEL_CELL_M, y + dy as f64 * LEVEL_CELL_M);
+                if let Some(i) = self.level_index(px, py) {
+                    let (lo, hi) = self.levels[i];
+                    self.levels[i] = (lo.min(zc), hi.max(zc));
+                }
+            }
+        }
         let (cx, cy) = self.cell(x, y);
         let r = (radius_m / self.resolution).ceil() as i64;
         for iy in cy - r..=cy + r {
@@ -62,11 +101,19 @@ impl CoverageMap {
         }
     }
 
-    /// Whether (x, y) is covered (outside the grid: no).
-    pub fn covered(&self, x: f64, y: f64) -> bool {
+    /// Whether (x, y) at height `z` is covered (outside the grid: no).
+    pub fn covered(&self, x: f64, y: f64, z: f64) -> bool {
         let (ix, iy) = self.cell(x, y);
-        self.index(ix, iy)
-            .is_some_and(|i| self.bits[i / 64] & (1 << (i % 64)) != 0)
+        let bit = self
+            .index(ix, iy)
+            .is_some_and(|i| self.bits[i / 64] & (1 << (i % 64)) != 0);
+        bit && self.level_index(x, y).is_some_and(|i| {
+            let (lo, hi) = self.levels[i];
+            let zc = z * 100.0;
+            lo <= hi
+                && zc >= lo as f64 - LEVEL_BAND_M * 100.0
+                && zc <= hi as f64 + LEVEL_BAND_M * 100.0
+        })
     }
 
     /// Covered area, m^2.
@@ -75,7 +122,7 @@ impl CoverageMap {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.bits.len() * 8
+        self.bits.len() * 8 + self.levels.len() * 4
     }
 }
 
@@ -86,14 +133,26 @@ mod tests {
     #[test]
     fn marks_a_disc_and_counts_it_once() {
         let mut c = CoverageMap::new([0.0, 0.0], 20.0, 0.25);
-        c.mark(1.0, 1.0, 2.0);
-        assert!(c.covered(1.0, 1.0) && c.covered(2.7, 1.0) && !c.covered(3.5, 1.0));
+        c.mark(1.0, 1.0, 0.2, 2.0);
+        assert!(c.covered(1.0, 1.0, 0.0) && c.covered(2.7, 1.0, 0.0) && !c.covered(3.5, 1.0, 0.0));
         let a = c.area_m2();
         assert!((a - std::f64::consts::PI * 4.0).abs() < 1.0, "{a}");
-        c.mark(1.0, 1.0, 2.0);
+        c.mark(1.0, 1.0, 0.2, 2.0);
         assert_eq!(c.area_m2(), a);
         // Off the grid: never covered, never a panic.
-        c.mark(100.0, 0.0, 2.0);
-        assert!(!c.covered(100.0, 0.0));
+        c.mark(100.0, 0.0, 0.2, 2.0);
+        assert!(!c.covered(100.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn a_level_over_the_track_is_not_covered_until_driven() {
+        // Driven under a ramp or a slab 3 m up: the ground up there is not
+        // covered, the ground the rover drove is.
+        let mut c = CoverageMap::new([0.0, 0.0], 20.0, 0.25);
+        c.mark(1.0, 1.0, 0.2, 2.0);
+        assert!(c.covered(1.5, 1.0, 0.0) && c.covered(1.5, 1.0, 1.2));
+        assert!(!c.covered(1.5, 1.0, 3.0));
+        c.mark(1.0, 1.0, 3.2, 2.0);
+        assert!(c.covered(1.5, 1.0, 3.0) && c.covered(1.5, 1.0, 0.0));
     }
 }

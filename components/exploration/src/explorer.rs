@@ -127,7 +127,8 @@ impl Explorer {
 
     /// The rover is at `p` at mission time `t_s`.
     pub fn observe(&mut self, t_s: f64, p: [f64; 3]) {
-        self.coverage.mark(p[0], p[1], self.p.coverage_radius_m);
+        self.coverage
+            .mark(p[0], p[1], p[2], self.p.coverage_radius_m);
         self.trail.record(p);
         if self.mode == Mode::Exploring && t_s >= self.p.time_limit_s {
             self.mode = Mode::Returning(ReturnReason::TimeLimit);

@@ -52,7 +52,7 @@ fn scan(
 fn the_open_end_of_a_corridor_is_the_best_candidate() {
     let t = corridor();
     let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
-    cov.mark(0.0, 0.0, 3.0);
+    cov.mark(0.0, 0.0, 0.2, 3.0);
     let best = scan(&t, &cov, &[], 100);
     assert_eq!(best.len(), MAX_CANDIDATES);
     // At the open end, where the map stops.
@@ -69,7 +69,7 @@ fn covered_and_rejected_patches_are_not_candidates() {
     let t = corridor();
     let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
     for k in 0..=12 {
-        cov.mark(k as f64, 0.0, 3.0);
+        cov.mark(k as f64, 0.0, 0.2, 3.0);
     }
     assert!(scan(&t, &cov, &[], 100).is_empty());
     let cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
