@@ -5,6 +5,9 @@
 use crate::legs::{split_legs, Leg, MAX_LEGS};
 use crate::{FollowerParams, Path, PurePursuit, Twist, MAX_WAYPOINTS};
 
+/// Backward legs are driven at this fraction of the forward command.
+const REVERSE_SPEED_SCALE: f64 = 0.5;
+
 #[derive(Clone, Debug)]
 pub struct PlanFollower {
     follower: PurePursuit,
@@ -82,7 +85,11 @@ impl PlanFollower {
             };
             let mut t = self.follower.command(x, y, heading);
             if reverse {
-                t.v = -t.v;
+                // Backing up, slower (same curvature): pure pursuit strays
+                // more, the monitor looks behind less well, and the planner
+                // costs reversing at under half the forward speed.
+                t.v = -t.v * REVERSE_SPEED_SCALE;
+                t.w *= REVERSE_SPEED_SCALE;
             }
             if !self.follower.done() || self.leg + 1 >= self.legs.len() {
                 return t;
