@@ -133,7 +133,21 @@ pub struct ExplorationStatus {
 pub struct HealthReport {
     pub stale_mask: u32,
     pub drive_faults: u8,
+    /// `tasks::health::finding` bits.
+    pub findings: u16,
     pub safe_mode: bool,
+}
+
+/// The executive's own figures, mirrored between frames for health.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Timing {
+    /// Task runs over budget so far.
+    pub overruns: u64,
+    /// Frames the clock skipped so far.
+    pub slipped_frames: u64,
+    /// The executive applies its overrun policies (real time, or a budget
+    /// test on virtual time).
+    pub enforcing: bool,
 }
 
 /// Counters every driver keeps, reported by health.
@@ -149,6 +163,8 @@ pub struct Counters {
     pub raw_dropped: u64,
     pub can_tx_dropped: u64,
     pub hal_errors: u64,
+    /// Errors of the CAN controller (bus-off), sending or receiving.
+    pub can_errors: u64,
     pub imu_samples_lost: u64,
 }
 
@@ -265,6 +281,10 @@ pub struct Bus {
     pub counters: Counters,
     /// Set by health when the executive must switch to the safe schedule.
     pub safe_mode_request: bool,
+    /// Set by health when nothing has been wrong for long enough to leave
+    /// the safe schedule.
+    pub recovery_ready: bool,
+    pub timing: Timing,
     /// The executive's mode, mirrored for the recorder and health.
     pub mode: Mode,
 }
@@ -296,6 +316,8 @@ impl Bus {
             health: Latest::new(),
             counters: Counters::default(),
             safe_mode_request: false,
+            recovery_ready: false,
+            timing: Timing::default(),
             mode: Mode::Nominal,
         })
     }

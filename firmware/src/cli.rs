@@ -341,6 +341,13 @@ pub struct SimArgs {
     /// the side, as a PNG.
     #[arg(long, value_name = "OUT.png")]
     pub plot: Option<PathBuf>,
+    /// Inject a fault, KIND@START[+DURATION][:WHEEL] (seconds; the duration
+    /// defaults to 5, the wheel to 1 = front left). Kinds: lidar-dropout,
+    /// imu-garbage, imu-dropout, stuck-wheel, wheel-slip, drive-fault,
+    /// can-bus-off, overrun-storm, clock-jump. Repeat for more; added to
+    /// the configuration's `sim.faults`.
+    #[arg(long = "fault", value_name = "SPEC")]
+    pub faults: Vec<String>,
     #[command(flatten)]
     pub out: Outputs,
 }

@@ -120,6 +120,9 @@ pub struct SimConfig {
     pub imu_misalignment_deg: [f64; 3],
     /// Fault injection: a wrong loop closure handed to SLAM.
     pub false_loop_closure: Option<FalseLoopClosure>,
+    /// Fault injection: `KIND@START[+DURATION][:WHEEL]` (see `speleo sim
+    /// --help`), e.g. `lidar-dropout@20+5`.
+    pub faults: Vec<String>,
     /// The physics rover's build.
     pub rover: speleo_hal::sim::PhysicsParams,
 }
@@ -152,6 +155,7 @@ impl Default for SimConfig {
             route_length_m: 0.0,
             imu_misalignment_deg: [0.0; 3],
             false_loop_closure: None,
+            faults: Vec::new(),
             rover: speleo_hal::sim::PhysicsParams::default(),
         }
     }
@@ -372,6 +376,23 @@ pub struct HealthConfig {
     pub startup_grace_ms: u32,
     /// Enter the safe schedule when a device goes silent.
     pub safe_mode_on_stale: bool,
+    /// The LiDAR's packets (about 1,800 a second) stopping this long is a
+    /// dropout. Watched from its first packet on.
+    pub lidar_timeout_ms: u32,
+    /// A wheel the odometry leaves out of most of its steps for this long
+    /// is stuck or spinning.
+    pub wheel_disagreement_ms: u32,
+    /// This many task overruns within a second are a storm (only when the
+    /// executive enforces its budgets; 0: never).
+    pub overrun_storm_per_s: u32,
+    /// A jump of the frame clock at least this long is a fault.
+    pub clock_jump_ms: u32,
+    /// Leave the safe schedule once nothing has been found for this long
+    /// (0: stay in it until restarted).
+    pub recover_after_ms: u32,
+    /// Reset a drive's fault after it has stood this long, and again as
+    /// often while it stays (0: never reset).
+    pub drive_fault_reset_ms: u32,
 }
 
 impl Default for HealthConfig {
@@ -381,6 +402,12 @@ impl Default for HealthConfig {
             drive_heartbeat_timeout_ms: 300,
             startup_grace_ms: 500,
             safe_mode_on_stale: true,
+            lidar_timeout_ms: 300,
+            wheel_disagreement_ms: 300,
+            overrun_storm_per_s: 20,
+            clock_jump_ms: 100,
+            recover_after_ms: 2_000,
+            drive_fault_reset_ms: 1_000,
         }
     }
 }
@@ -822,6 +849,24 @@ impl Config {
             600_000,
             "0..=600000",
         )?;
+        for (key, v) in [
+            ("health.lidar_timeout_ms", h.lidar_timeout_ms),
+            ("health.wheel_disagreement_ms", h.wheel_disagreement_ms),
+            ("health.clock_jump_ms", h.clock_jump_ms),
+        ] {
+            range(key, v, 1, 60_000, "1..=60000")?;
+        }
+        for (key, v) in [
+            ("health.overrun_storm_per_s", h.overrun_storm_per_s),
+            ("health.recover_after_ms", h.recover_after_ms),
+            ("health.drive_fault_reset_ms", h.drive_fault_reset_ms),
+        ] {
+            range(key, v, 0, 600_000, "0..=600000")?;
+        }
+        crate::faults::parse_all(&self.sim.faults).map_err(|why| ConfigError::Invalid {
+            key: "sim.faults".into(),
+            why,
+        })?;
         let rec = &self.record;
         range(
             "record.chunk_size_kib",

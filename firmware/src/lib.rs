@@ -6,6 +6,7 @@ pub mod bus;
 pub mod cli;
 pub mod config;
 pub mod exploration_figures;
+pub mod faults;
 pub mod keyframe_clouds;
 pub mod maps_output;
 pub mod mission;

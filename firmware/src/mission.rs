@@ -64,6 +64,23 @@ pub struct TaskFigures {
     pub overruns: u64,
     pub skipped: u64,
     pub allocations: u64,
+    /// Most heap bytes requested within one run.
+    pub alloc_bytes_max_run: u64,
+    /// The per-run memory budget of a task that may allocate.
+    pub memory_budget_kib: Option<u32>,
+}
+
+/// The heap across the run (every thread of the process), when the
+/// accounting allocator is installed.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct MemoryFigures {
+    /// The high-water mark over the first half of the frames.
+    pub heap_peak_first_half_bytes: u64,
+    /// The high-water mark over the whole run.
+    pub heap_peak_bytes: u64,
+    /// How much the second half raised it.
+    pub heap_peak_growth_bytes: u64,
+    pub heap_live_end_bytes: u64,
 }
 
 pub struct MissionResult {
@@ -100,6 +117,10 @@ pub struct MissionResult {
     /// The report's `maps` section, once the run's requests are done.
     pub maps_figures: Option<crate::maps_output::MapsFigures>,
     pub planner: Option<crate::planner_figures::PlannerFigures>,
+    /// What became of the injected faults, and the false alarms.
+    pub faults: crate::faults::log::FaultFigures,
+    /// None without the accounting allocator.
+    pub memory: Option<MemoryFigures>,
 }
 
 /// The maps at the end of a run: the MLS map's figures, and the keyframe
@@ -123,6 +144,8 @@ pub enum MissionError {
     Planner(String),
     #[error("lidar.calibration: {0}")]
     Calibration(#[from] speleo_hal::hdl32e::calib::CalibError),
+    #[error("sim.faults: {0}")]
+    Faults(String),
 }
 
 /// Bytes of one recorded point-cloud message for `max_points` points
@@ -192,6 +215,25 @@ fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, Mission
 
 /// Height of base_link over the ground: it is at the wheel hubs, which the
 /// legs hold at 0.8 to 1 times their length over the ground.
+/// The health task's limits from `[health]`.
+fn health_params(cfg: &Config) -> health::HealthParams {
+    let h = &cfg.health;
+    let ms = |v: u32| v as u64 * 1_000_000;
+    // Checks run every 100 ms.
+    let checks = h.wheel_disagreement_ms.div_ceil(100).max(1);
+    health::HealthParams {
+        imu_limit_ns: ms(h.imu_timeout_ms),
+        drive_limit_ns: ms(h.drive_heartbeat_timeout_ms),
+        lidar_limit_ns: ms(h.lidar_timeout_ms),
+        grace_ns: ms(h.startup_grace_ms),
+        safe_on_stale: h.safe_mode_on_stale,
+        wheel_checks: checks,
+        storm_overruns: h.overrun_storm_per_s as u64,
+        clock_jump_ns: ms(h.clock_jump_ms),
+        recover_after_ns: ms(h.recover_after_ms),
+    }
+}
+
 fn base_height_m(cfg: &Config) -> f64 {
     0.9 * cfg.rover.wheel_radius_m
 }
@@ -357,14 +399,11 @@ pub fn run<C: FrameClock>(
             retry_ns: 200_000_000,
             boot_grace_ns: cfg.health.startup_grace_ms as u64 * 1_000_000,
             max_velocity: (cfg.rover.max_wheel_speed * 1000.0).round() as i32,
+            fault_reset_ns: cfg.health.drive_fault_reset_ms as u64 * 1_000_000,
         });
-    let h = &cfg.health;
-    let mut t_health = health::HealthTask::new(
-        h.imu_timeout_ms as u64 * 1_000_000,
-        h.drive_heartbeat_timeout_ms as u64 * 1_000_000,
-        h.startup_grace_ms as u64 * 1_000_000,
-        h.safe_mode_on_stale,
-    );
+    let mut t_health = health::HealthTask::new(health_params(cfg));
+    let faults = crate::faults::parse_all(&cfg.sim.faults).map_err(MissionError::Faults)?;
+    let mut fault_log = crate::faults::log::FaultLog::new(&faults);
     let mut t_rec = recorder::RecorderTask::new(
         tap,
         cfg.control.path.clone(),
@@ -414,6 +453,8 @@ pub fn run<C: FrameClock>(
     warm_up_blocking();
     let started = Instant::now();
     accounting::reset();
+    accounting::reset_heap_peak();
+    let mut first_half_peak = None;
     accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
     loop {
         // An exploration that is home ends the mission.
@@ -433,8 +474,19 @@ pub fn run<C: FrameClock>(
         let f = exec.run_frame(&mut bus);
         if bus.safe_mode_request && exec.mode() == Mode::Nominal {
             exec.enter_safe_mode();
+        } else if bus.recovery_ready && exec.mode() == Mode::Safe {
+            exec.leave_safe_mode();
+            bus.recovery_ready = false;
         }
         bus.mode = exec.mode();
+        bus.timing.overruns += f.overruns as u64;
+        bus.timing.slipped_frames += f.slipped;
+        bus.timing.enforcing = m.enforcement == Enforcement::Enforce;
+        fault_log.observe(
+            f.time_ns,
+            bus.health.get().map_or(0, |h| h.value.findings),
+            exec.mode(),
+        );
         if let Some(truth) = &m.truth {
             record_truth(
                 &mut tap.borrow_mut(),
@@ -462,6 +514,9 @@ pub fn run<C: FrameClock>(
                 "overrun"
             );
         }
+        if total.is_some_and(|n| exec.frames_run() * 2 >= n) && first_half_peak.is_none() {
+            first_half_peak = Some(accounting::heap_peak_bytes());
+        }
         if let Some(p) = m.progress {
             if f.frame % 100 == 0 {
                 p(exec.frames_run(), total);
@@ -471,6 +526,17 @@ pub fn run<C: FrameClock>(
     }
     accounting::untrack();
     let wall = started.elapsed().as_secs_f64();
+    // Before the results are gathered (they copy maps and clouds).
+    let peak = accounting::heap_peak_bytes();
+    let memory = (peak > 0).then(|| {
+        let half = first_half_peak.unwrap_or(peak);
+        MemoryFigures {
+            heap_peak_first_half_bytes: half,
+            heap_peak_bytes: peak,
+            heap_peak_growth_bytes: peak.saturating_sub(half),
+            heap_live_end_bytes: accounting::heap_live_bytes(),
+        }
+    });
     // Tasks that call allocating crates (sparse factorisation) are counted
     // apart: they run within a memory budget instead.
     let budgeted = |slot: usize| {
@@ -510,6 +576,8 @@ pub fn run<C: FrameClock>(
             overruns: st.overruns,
             skipped: st.skipped,
             allocations: accounting::allocations(i + 1),
+            alloc_bytes_max_run: st.alloc_bytes_max_run,
+            memory_budget_kib: crate::schedule_table::memory_budget_kib(cfg, &spec.name),
         })
         .collect();
     let frames = exec.frames_run();
@@ -567,6 +635,8 @@ pub fn run<C: FrameClock>(
     });
     let t = tap.borrow();
     Ok(MissionResult {
+        memory,
+        faults: fault_log.figures(),
         exploration,
         explored,
         exploration_home: t_plan.exploration().map(|e| e.explorer.home()),

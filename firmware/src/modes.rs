@@ -21,6 +21,7 @@ use crate::cli::{
     SimArgs, WorldExportArgs,
 };
 use crate::config::Config;
+use crate::faults::inject::{FaultClock, FaultyHardware};
 use crate::mission::{self, Length, MissionInputs, MissionResult};
 use crate::record::compare::Comparer;
 use crate::record::writer::{self, WriterOptions, WriterStats};
@@ -80,15 +81,21 @@ impl Session {
         last: u64,
         progress: bool,
     ) -> Result<MissionResult, Error> {
-        let mut hw = ReplayHardware::new(cfg.executive.minor_frame_us, inputs);
+        let mut recorded = ReplayHardware::new(cfg.executive.minor_frame_us, inputs);
+        // The recorded bytes hold the device faults already; those on the
+        // executive (its clock, slow polls) are injected again.
+        let faults = crate::faults::parse_all(&cfg.sim.faults)?;
+        let mut hw = FaultyHardware::new(&mut recorded, &faults, true);
+        let clock = FaultClock::new(VirtualClock::new(cfg.executive.minor_frame_us), &faults);
+        let frames = last + 1 - clock.skipped_within(last + 1);
         self.drive(
             cfg,
-            Length::Frames(last + 1),
+            Length::Frames(frames),
             virtual_enforcement(cfg),
             None,
             &AtomicBool::new(false),
             &mut hw,
-            VirtualClock::new(cfg.executive.minor_frame_us),
+            clock,
             progress,
         )
     }
@@ -304,6 +311,7 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     if let Some(w) = &a.world {
         cfg.sim.world = w.clone();
     }
+    cfg.sim.faults.extend(a.faults.iter().cloned());
     let result = simulate(&mut cfg, &a.out, progress)?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
     if let Some(path) = &a.trajectory {
@@ -336,25 +344,32 @@ pub(crate) fn simulate(
     }
     schedule_table::build(cfg)?;
     let params = sim_params(cfg);
-    let mut hw = SimHardware::with_world(&params, &world)?;
-    let truth = hw.truth_probe();
+    let mut sim_hw = SimHardware::with_world(&params, &world)?;
+    let truth = sim_hw.truth_probe();
+    let faults = crate::faults::parse_all(&cfg.sim.faults)?;
+    let mut hw = FaultyHardware::new(&mut sim_hw, &faults, false);
     let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
     let mut meta = run_metadata(cfg, "sim", epoch_ns);
     meta.insert("seed".into(), cfg.sim.seed.to_string());
     meta.insert("world".into(), cfg.sim.world.clone());
     let mut session = Session::open(out, cfg, meta, epoch_ns, None, true)?;
+    // A clock jump skips frames of the mission's time.
+    let clock = FaultClock::new(VirtualClock::new(cfg.executive.minor_frame_us), &faults);
+    let frames = frames_for(cfg, cfg.sim.duration_s);
+    let frames = frames - clock.skipped_within(frames);
     let mut result = session.drive(
         cfg,
-        Length::Frames(frames_for(cfg, cfg.sim.duration_s)),
+        Length::Frames(frames),
         virtual_enforcement(cfg),
         Some(truth),
         &AtomicBool::new(false),
         &mut hw,
-        VirtualClock::new(cfg.executive.minor_frame_us),
+        clock,
         progress,
     )?;
+    drop(hw);
     finish_maps(cfg, out, &mut result)?;
-    exploration_truth(cfg, &world, hw.collisions(), &mut result)?;
+    exploration_truth(cfg, &world, sim_hw.collisions(), &mut result)?;
     Ok(result)
 }
 

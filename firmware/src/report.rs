@@ -29,6 +29,9 @@ pub struct Report<'a> {
     pub exploration: Option<&'a crate::exploration_figures::ExplorationFigures>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub internal_sim: Option<&'a crate::exploration_figures::InternalSimFigures>,
+    pub faults: &'a crate::faults::log::FaultFigures,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub memory: Option<crate::mission::MemoryFigures>,
 }
 
 #[derive(Serialize)]
@@ -112,6 +115,8 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         planner: r.planner.as_ref(),
         exploration: r.exploration.as_ref(),
         internal_sim: r.internal_sim.as_ref(),
+        faults: &r.faults,
+        memory: r.memory,
     }
 }
 

@@ -9,9 +9,12 @@
 //! against), the garage (concrete walls and slabs all around: the densest
 //! LiDAR returns) and the replay of a recorded route mission.
 //!
-//! A task passes when its p99.9 is within its budget. Its maximum is
-//! printed beside it but not judged: on a shared Linux machine without
-//! real-time priority it includes preemptions by other processes.
+//! A task passes when its p99.9 is within its budget and, for the tasks
+//! that may allocate, no run requested more heap than its memory budget.
+//! Its maximum time is printed beside it but not judged: on a shared Linux
+//! machine without real-time priority it includes preemptions by other
+//! processes. Each scenario also shows the heap's high-water mark and how
+//! much its second half raised it.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -106,6 +109,8 @@ pub struct TaskVerdict {
     pub p99_us: f64,
     pub p999_us: f64,
     pub overruns: u64,
+    pub alloc_bytes_max_run: u64,
+    pub memory_budget_kib: Option<u32>,
     pub pass: bool,
 }
 
@@ -116,6 +121,7 @@ pub struct ScenarioReport {
     pub world: String,
     pub sim_time_s: f64,
     pub wall_time_s: f64,
+    pub memory: Option<crate::mission::MemoryFigures>,
     pub tasks: Vec<TaskVerdict>,
     pub pass: bool,
 }
@@ -136,6 +142,7 @@ pub fn judge(s: &Scenario, r: &MissionResult) -> ScenarioReport {
         world: s.world.into(),
         sim_time_s: r.sim_time_s,
         wall_time_s: r.wall_time_s,
+        memory: r.memory,
         pass: tasks.iter().all(|t| t.pass),
         tasks,
     }
@@ -153,7 +160,11 @@ pub fn verdicts(tasks: &[TaskFigures]) -> Vec<TaskVerdict> {
             p99_us: t.p99_us,
             p999_us: t.p999_us,
             overruns: t.overruns,
-            pass: t.runs == 0 || t.p999_us <= t.budget_us as f64,
+            alloc_bytes_max_run: t.alloc_bytes_max_run,
+            memory_budget_kib: t.memory_budget_kib,
+            pass: (t.runs == 0 || t.p999_us <= t.budget_us as f64)
+                && t.memory_budget_kib
+                    .is_none_or(|kib| t.alloc_bytes_max_run <= kib as u64 * 1024),
         })
         .collect()
 }
@@ -193,19 +204,31 @@ fn print(s: &ScenarioReport) {
         s.wall_time_s,
         if s.pass { "pass" } else { "FAIL" }
     );
+    if let Some(m) = &s.memory {
+        println!(
+            "  heap high-water {:.1} MB, raised {:.1} kB in the second half",
+            m.heap_peak_bytes as f64 * 1e-6,
+            m.heap_peak_growth_bytes as f64 * 1e-3
+        );
+    }
     println!(
-        "  {:<13} {:>8} {:>9} {:>9} {:>9} {:>9}  verdict",
-        "task", "budget", "max", "p99", "p99.9", "overruns"
+        "  {:<13} {:>8} {:>9} {:>9} {:>9} {:>9} {:>17}  verdict",
+        "task", "budget", "max", "p99", "p99.9", "overruns", "heap/run (budget)"
     );
     for t in &s.tasks {
+        let heap = match t.memory_budget_kib {
+            Some(kib) => format!("{}k ({kib}k)", t.alloc_bytes_max_run.div_ceil(1024)),
+            None => format!("{}k", t.alloc_bytes_max_run.div_ceil(1024)),
+        };
         println!(
-            "  {:<13} {:>6}us {:>7.0}us {:>7.0}us {:>7.0}us {:>9}  {}",
+            "  {:<13} {:>6}us {:>7.0}us {:>7.0}us {:>7.0}us {:>9} {:>17}  {}",
             t.name,
             t.budget_us,
             t.max_us,
             t.p99_us,
             t.p999_us,
             t.overruns,
+            heap,
             if t.pass { "pass" } else { "FAIL" }
         );
     }
@@ -239,7 +262,7 @@ pub fn wcet(
         scenarios.push(r);
     }
     let out = WcetReport {
-        criterion: "p99.9 within the budget",
+        criterion: "p99.9 within the time budget; heap per run within the memory budget",
         pass: scenarios.iter().all(|s| s.pass),
         scenarios,
     };
@@ -272,6 +295,8 @@ mod tests {
             overruns: 0,
             skipped: 0,
             allocations: 0,
+            alloc_bytes_max_run: 0,
+            memory_budget_kib: None,
         }
     }
 
@@ -286,6 +311,17 @@ mod tests {
             v.iter().map(|t| t.pass).collect::<Vec<_>>(),
             [true, false, true]
         );
+    }
+
+    #[test]
+    fn a_task_over_its_memory_budget_fails() {
+        let mut within = task(100.0, 100.0, 10);
+        within.memory_budget_kib = Some(4);
+        within.alloc_bytes_max_run = 4096;
+        let mut over = within.clone();
+        over.alloc_bytes_max_run = 4097;
+        let v = verdicts(&[within, over]);
+        assert_eq!(v.iter().map(|t| t.pass).collect::<Vec<_>>(), [true, false]);
     }
 
     #[test]

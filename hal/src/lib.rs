@@ -88,6 +88,10 @@ pub enum HalError {
     Config(String),
     #[error("CAN transmit queue full")]
     TxFull,
+    /// The CAN controller left the bus after too many errors; it neither
+    /// sends nor receives until it has recovered.
+    #[error("CAN controller is bus-off")]
+    BusOff,
 }
 
 /// Where receive times come from. Every receive time is in the executive's

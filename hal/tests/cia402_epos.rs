@@ -58,6 +58,7 @@ fn the_captured_epos_sequence_reaches_operation_enabled() {
         retry_ns: 100_000_000,
         boot_grace_ns: u64::MAX / 2,
         max_velocity: 10_000,
+        fault_reset_ns: 0,
     });
     let mut t = 10;
     let mut checked = 0;

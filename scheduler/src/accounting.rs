@@ -5,9 +5,43 @@
 //! `#[global_allocator] static A: AccountingAllocator = AccountingAllocator;`.
 //! Counting is per thread, so tests running in parallel do not disturb each
 //! other, and threads that never call [`set_slot`] are not counted at all.
+//! The heap's live bytes and their high-water mark are kept for the whole
+//! process (every thread).
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+static LIVE: AtomicU64 = AtomicU64::new(0);
+static PEAK: AtomicU64 = AtomicU64::new(0);
+
+#[inline]
+fn live_grows(by: u64) {
+    let now = LIVE.fetch_add(by, Ordering::Relaxed) + by;
+    PEAK.fetch_max(now, Ordering::Relaxed);
+}
+
+#[inline]
+fn live_shrinks(by: u64) {
+    LIVE.fetch_sub(by, Ordering::Relaxed);
+}
+
+/// Heap bytes in use now, every thread (0 unless this allocator is the
+/// global one).
+pub fn heap_live_bytes() -> u64 {
+    LIVE.load(Ordering::Relaxed)
+}
+
+/// The most heap bytes in use at once since the start or the last
+/// [`reset_heap_peak`].
+pub fn heap_peak_bytes() -> u64 {
+    PEAK.load(Ordering::Relaxed)
+}
+
+/// Start the high-water mark again from what is in use now.
+pub fn reset_heap_peak() {
+    PEAK.store(LIVE.load(Ordering::Relaxed), Ordering::Relaxed);
+}
 
 use crate::MAX_TASKS;
 
@@ -49,19 +83,33 @@ unsafe impl GlobalAlloc for AccountingAllocator {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         count(layout.size());
         // SAFETY: forwarded with the caller's layout.
-        unsafe { System.alloc(layout) }
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            live_grows(layout.size() as u64);
+        }
+        p
     }
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
         count(layout.size());
         // SAFETY: forwarded with the caller's layout.
-        unsafe { System.alloc_zeroed(layout) }
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            live_grows(layout.size() as u64);
+        }
+        p
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
         count(new_size);
         // SAFETY: forwarded with the caller's pointer and layout.
-        unsafe { System.realloc(ptr, layout, new_size) }
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            live_grows(new_size as u64);
+            live_shrinks(layout.size() as u64);
+        }
+        p
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        live_shrinks(layout.size() as u64);
         // SAFETY: forwarded with the caller's pointer and layout.
         unsafe { System.dealloc(ptr, layout) }
     }

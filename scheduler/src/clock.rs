@@ -9,6 +9,11 @@
 pub trait Platform {
     fn now_ns(&self) -> u64;
     fn enter(&self, _slot: u16) {}
+    /// Heap bytes requested so far by the code of `slot` (0 where nothing
+    /// counts them).
+    fn allocated_bytes(&self, _slot: u16) -> u64 {
+        0
+    }
 }
 
 /// Slot number of the executive itself for [`Platform::enter`].

@@ -142,7 +142,9 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             }
             cx.degraded = st.degraded;
             let task = &mut *self.tasks[i];
-            self.platform.enter(1 + i as u16);
+            let slot = 1 + i as u16;
+            let bytes0 = self.platform.allocated_bytes(slot);
+            self.platform.enter(slot);
             task.run(bus, &cx);
             if let Some(any) = spec.anytime {
                 for _ in 0..any.steps {
@@ -156,6 +158,8 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             let dt = t1.saturating_sub(t0);
             t0 = t1;
             self.platform.enter(EXECUTIVE_SLOT);
+            let run_bytes = self.platform.allocated_bytes(slot).saturating_sub(bytes0);
+            st.alloc_bytes_max_run = st.alloc_bytes_max_run.max(run_bytes);
             tasks_run += 1;
             st.runs += 1;
             st.histogram.record(dt);

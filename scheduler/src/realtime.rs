@@ -29,6 +29,10 @@ impl Platform for StdPlatform {
     fn enter(&self, slot: u16) {
         crate::accounting::set_slot(slot);
     }
+    #[inline]
+    fn allocated_bytes(&self, slot: u16) -> u64 {
+        crate::accounting::bytes(slot as usize)
+    }
 }
 
 /// Real time: frame `k` starts at the absolute time `t0 + k * minor_frame`, so

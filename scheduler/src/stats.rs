@@ -16,6 +16,8 @@ pub struct TaskStats {
     pub retracted: u64,
     /// Is the task in its degraded mode now?
     pub degraded: bool,
+    /// Most heap bytes requested within one run.
+    pub alloc_bytes_max_run: u64,
     pub(crate) clean_runs: u32,
     pub(crate) skip_next: bool,
     pub histogram: Histogram,

@@ -40,6 +40,7 @@ pub fn sim_with_trajectory(
             config: config.map(Path::to_path_buf),
             trajectory: trajectory.map(Path::to_path_buf),
             plot: None,
+            faults: Vec::new(),
             out: Outputs {
                 record: record.map(Path::to_path_buf),
                 report: report.map(Path::to_path_buf),

@@ -23,6 +23,7 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
             config: Some(config),
             trajectory: None,
             plot: Some(plot.clone()),
+            faults: Vec::new(),
             out: Outputs {
                 report: Some(report.clone()),
                 ..Outputs::default()

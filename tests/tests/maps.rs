@@ -87,6 +87,7 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
             config: Some(config.clone()),
             trajectory: Some(trajectory.clone()),
             plot: None,
+            faults: Vec::new(),
             out: Outputs {
                 record: Some(log.clone()),
                 report: Some(report.clone()),

@@ -10,7 +10,7 @@
 
 use std::cell::RefCell;
 
-use speleo_hal::Hardware;
+use speleo_hal::{HalError, Hardware};
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::Bus;
@@ -31,8 +31,11 @@ impl Task<Bus> for IoTask<'_, '_> {
         let mut hw = self.hw.borrow_mut();
         hw.advance_to(now);
         while let Some(f) = bus.can_tx.pop() {
-            if hw.can().send(now, &f).is_err() {
+            if let Err(e) = hw.can().send(now, &f) {
                 bus.counters.hal_errors += 1;
+                if matches!(e, HalError::BusOff) {
+                    bus.counters.can_errors += 1;
+                }
             }
         }
         while let Some(m) = bus.imu_tx.pop() {
@@ -42,11 +45,13 @@ impl Task<Bus> for IoTask<'_, '_> {
         }
         bus.raw.clear();
         let raw = &mut bus.raw;
-        let errors = [
-            hw.lidar().poll(now, raw).is_err(),
-            hw.imu().poll(now, raw).is_err(),
-            hw.can().poll(now, raw).is_err(),
-        ];
+        let lidar = hw.lidar().poll(now, raw).is_err();
+        let imu = hw.imu().poll(now, raw).is_err();
+        let can = hw.can().poll(now, raw).is_err();
+        if can {
+            bus.counters.can_errors += 1;
+        }
+        let errors = [lidar, imu, can];
         bus.counters.hal_errors += errors.iter().filter(|e| **e).count() as u64;
         bus.counters.raw_dropped = bus.raw.dropped;
         bus.counters.can_tx_dropped = bus.can_tx.dropped();

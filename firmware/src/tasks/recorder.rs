@@ -14,7 +14,7 @@ use crate::record::encode::{
     Vector3, WheelCommandJson, WheelJson,
 };
 use crate::record::{RecorderTap, Topic};
-use crate::tasks::health::SOURCE_NAMES;
+use crate::tasks::health::{finding, SOURCE_NAMES};
 
 /// The path is re-sent this often (frames) so a viewer that seeks finds it.
 pub const PLAN_EVERY_FRAMES: u64 = 100;
@@ -88,11 +88,12 @@ struct Stamped<T> {
 }
 
 #[derive(Serialize)]
-struct HealthJson<'a, S: Serialize> {
+struct HealthJson<'a, S: Serialize, F: Serialize> {
     timestamp: Time,
     mode: &'a str,
     imu_config: &'a str,
     stale: S,
+    findings: F,
     drive_faults: u8,
     counters: CountersJson,
 }
@@ -113,6 +114,7 @@ struct CountersJson {
     can_tx_dropped: u64,
     raw_dropped: u64,
     hal_errors: u64,
+    can_errors: u64,
 }
 
 impl From<&Counters> for CountersJson {
@@ -132,6 +134,7 @@ impl From<&Counters> for CountersJson {
             can_tx_dropped: c.can_tx_dropped,
             raw_dropped: c.raw_dropped,
             hal_errors: c.hal_errors,
+            can_errors: c.can_errors,
         }
     }
 }
@@ -347,6 +350,7 @@ impl Task<Bus> for RecorderTask<'_> {
                         .filter(move |(i, _)| mask & (1 << i) != 0)
                         .map(|(_, n)| *n),
                 ),
+                findings: SeqOf::new(finding::names(h.value.findings)),
                 drive_faults: h.value.drive_faults,
                 counters: CountersJson::from(&bus.counters),
             };

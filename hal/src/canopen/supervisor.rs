@@ -13,8 +13,11 @@
 //! Safety: every wheel is commanded to zero when the executive is in safe
 //! mode, when the wheel command is missing or older than its freshness limit,
 //! when any drive's heartbeat is lost, or when any drive reports a fault. A
-//! skid-steer rover with one wheel out must not drive on the others. Faults
-//! are not reset automatically; the reasons are reported.
+//! skid-steer rover with one wheel out must not drive on the others. A
+//! drive's fault is reset (controlword bit 7) once it has stood for
+//! `fault_reset_ns`, and again every `fault_reset_ns` while its cause
+//! remains: a rover out of radio reach has no operator to do it. With
+//! `fault_reset_ns` = 0 faults are never reset. The reasons are reported.
 
 use crate::can::CanFrame;
 use crate::cia402::{self, DriveState, Pdo};
@@ -215,6 +218,9 @@ pub struct SupervisorParams {
     pub boot_grace_ns: u64,
     /// Largest target velocity sent, mrad/s at the wheel.
     pub max_velocity: i32,
+    /// A drive's fault is reset after standing this long, and again as
+    /// often while it stays (0: never reset).
+    pub fault_reset_ns: u64,
 }
 
 /// Why the wheels are held at zero (empty when they may turn).
@@ -259,6 +265,9 @@ pub struct Supervisor {
     last_sdo_ns: [Option<u64>; WHEELS],
     last_nmt_ns: [Option<u64>; WHEELS],
     last_preop_ns: [Option<u64>; WHEELS],
+    /// When the fault of a drive in Fault was first seen or last reset.
+    last_fault_reset_ns: [Option<u64>; WHEELS],
+    fault_resets: u64,
 }
 
 impl Supervisor {
@@ -268,6 +277,26 @@ impl Supervisor {
             last_sdo_ns: [None; WHEELS],
             last_nmt_ns: [None; WHEELS],
             last_preop_ns: [None; WHEELS],
+            last_fault_reset_ns: [None; WHEELS],
+            fault_resets: 0,
+        }
+    }
+
+    /// Fault resets sent so far.
+    pub fn fault_resets(&self) -> u64 {
+        self.fault_resets
+    }
+
+    /// The controlword for a drive in Fault: a reset (a rising edge of bit
+    /// 7) when one is due, else disable voltage.
+    fn fault_controlword(&mut self, w: usize, now: u64) -> u16 {
+        let last = self.last_fault_reset_ns[w].get_or_insert(now);
+        if self.p.fault_reset_ns > 0 && now.saturating_sub(*last) >= self.p.fault_reset_ns {
+            *last = now;
+            self.fault_resets += 1;
+            cia402::controlword::FAULT_RESET
+        } else {
+            cia402::controlword::DISABLE_VOLTAGE
         }
     }
 
@@ -353,11 +382,13 @@ impl Supervisor {
                 continue;
             }
             let controlword = match n.state {
-                // Faults are reported, not reset behind the operator's back.
                 DriveState::Fault | DriveState::FaultReactionActive => {
-                    cia402::controlword::DISABLE_VOLTAGE
+                    self.fault_controlword(w, now)
                 }
-                s => s.next_enable_command(),
+                s => {
+                    self.last_fault_reset_ns[w] = None;
+                    s.next_enable_command()
+                }
             };
             let velocity = match command {
                 Some((_, speeds)) if !hold && n.state == DriveState::OperationEnabled => {
@@ -385,6 +416,7 @@ mod tests {
             retry_ns: 200_000_000,
             boot_grace_ns: 1_000_000_000,
             max_velocity: 5_000,
+            fault_reset_ns: 0,
         }
     }
 
@@ -462,23 +494,70 @@ mod tests {
         assert_eq!(velocities(&frames), vec![0; 4]);
     }
 
-    #[test]
-    fn a_fault_statusword_stops_every_wheel_and_is_not_reset() {
-        let mut s = running(1_000);
-        let mut c = InputCounters::default();
-        s.apply(&cia402::tpdo1(3, 0x0608, 0), 2_000, &mut c);
-        let (frames, r) = plan(&s, 3_000, Some((2_500, [1.0; 4])));
-        assert_eq!(r.fault, 0b0100);
-        assert_eq!(velocities(&frames), vec![0; 4]);
-        let cw3 = frames.iter().find_map(|f| match cia402::decode(f) {
+    /// Node 3's controlword in `frames`.
+    fn controlword_of_3(frames: &[CanFrame]) -> Option<u16> {
+        frames.iter().find_map(|f| match cia402::decode(f) {
             Ok(Pdo::Command {
                 node: 3,
                 controlword,
                 ..
             }) => Some(controlword),
             _ => None,
+        })
+    }
+
+    #[test]
+    fn a_fault_statusword_stops_every_wheel_and_is_not_reset_when_resets_are_off() {
+        let mut s = running(1_000);
+        let mut c = InputCounters::default();
+        s.apply(&cia402::tpdo1(3, 0x0608, 0), 2_000, &mut c);
+        let mut sup = Supervisor::new(params());
+        for t in [3_000, 5_000_000_000] {
+            let mut frames = Vec::new();
+            let r = sup.plan(t, &s, Some((t, [1.0; 4])), false, &mut |f| frames.push(f));
+            assert_eq!(r.fault, 0b0100);
+            assert_eq!(velocities(&frames), vec![0; 4]);
+            assert_eq!(
+                controlword_of_3(&frames),
+                Some(cia402::controlword::DISABLE_VOLTAGE)
+            );
+        }
+        assert_eq!(sup.fault_resets(), 0);
+    }
+
+    #[test]
+    fn a_fault_is_reset_after_its_hold_off_and_again_while_it_stays() {
+        let mut s = running(1_000);
+        let mut c = InputCounters::default();
+        s.apply(&cia402::tpdo1(3, 0x0608, 0), 2_000, &mut c);
+        let mut sup = Supervisor::new(SupervisorParams {
+            fault_reset_ns: 1_000_000_000,
+            ..params()
         });
-        assert_eq!(cw3, Some(cia402::controlword::DISABLE_VOLTAGE));
+        let mut words = Vec::new();
+        // 10 ms frames for 2.5 s, the drive staying in Fault.
+        for k in 0..250u64 {
+            let t = 10_000 + k * 10_000_000;
+            let mut frames = Vec::new();
+            let r = sup.plan(t, &s, Some((t, [1.0; 4])), false, &mut |f| frames.push(f));
+            assert_eq!(velocities(&frames), vec![0; 4], "no wheel turns at {t}");
+            assert_eq!(r.fault, 0b0100);
+            words.push(controlword_of_3(&frames).expect("node 3 is commanded"));
+        }
+        let resets: Vec<usize> = (0..words.len())
+            .filter(|&i| words[i] == cia402::controlword::FAULT_RESET)
+            .collect();
+        // A rising edge of bit 7 each time: reset frames are single.
+        assert_eq!(resets, vec![100, 200]);
+        assert_eq!(sup.fault_resets(), 2);
+        // Once the drive has left Fault, it is enabled step by step again.
+        s.apply(&cia402::tpdo1(3, 0x0640, 0), 2_600_000_000, &mut c);
+        let mut frames = Vec::new();
+        sup.plan(2_600_000_000, &s, None, false, &mut |f| frames.push(f));
+        assert_eq!(
+            controlword_of_3(&frames),
+            Some(cia402::controlword::SHUTDOWN)
+        );
     }
 
     #[test]

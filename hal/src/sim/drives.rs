@@ -58,6 +58,17 @@ struct Drive {
     next_heartbeat_ns: u64,
     /// When a booting drive sends its boot-up message.
     boot_at_ns: u64,
+    /// The cause of an injected fault lasts until then: a fault reset
+    /// before it leaves the drive in Fault.
+    fault_until_ns: u64,
+    /// The motor is blocked (fault injection): the wheel is held still.
+    stuck: bool,
+    /// Encoder turns per turn of ground travel (1: rolling; fault injection
+    /// of a wheel spinning on loose ground).
+    spin: f64,
+    /// Encoder angle gained by spinning, rad, and the wheel angle last seen.
+    spun_rad: f64,
+    last_angle_rad: f64,
 }
 
 pub struct SimDrives {
@@ -84,6 +95,11 @@ impl SimDrives {
                 powered: true,
                 next_heartbeat_ns: 0,
                 boot_at_ns: p.boot_ns,
+                fault_until_ns: 0,
+                stuck: false,
+                spin: 1.0,
+                spun_rad: 0.0,
+                last_angle_rad: 0.0,
             }; WHEELS],
             outbox: Outbox::new(),
             unknown_frames: 0,
@@ -107,10 +123,36 @@ impl SimDrives {
         }
     }
 
-    /// Put a drive in the fault state (fault injection).
+    /// Put a drive in the fault state (fault injection). Its cause never
+    /// clears: a fault reset leaves it in Fault.
     pub fn inject_fault(&mut self, wheel: usize) {
+        self.inject_fault_until(wheel, u64::MAX);
+    }
+
+    /// Put a drive in the fault state with a cause that clears at
+    /// `until_ns` (an over-temperature, say): a fault reset after that
+    /// brings it back to Switch On Disabled.
+    pub fn inject_fault_until(&mut self, wheel: usize, until_ns: u64) {
         if let Some(d) = self.drives.get_mut(wheel) {
             d.state = DriveState::Fault;
+            d.fault_until_ns = until_ns;
+        }
+    }
+
+    /// Block or free a wheel's motor (fault injection): a blocked wheel is
+    /// held still whatever it is commanded.
+    pub fn set_stuck(&mut self, wheel: usize, stuck: bool) {
+        if let Some(d) = self.drives.get_mut(wheel) {
+            d.stuck = stuck;
+        }
+    }
+
+    /// Make a wheel's encoder turn `factor` times as far as the wheel rolls
+    /// over the ground (fault injection of a wheel spinning in loose
+    /// ground; 1 = rolling).
+    pub fn set_spin(&mut self, wheel: usize, factor: f64) {
+        if let Some(d) = self.drives.get_mut(wheel) {
+            d.spin = if factor.is_finite() { factor } else { 1.0 };
         }
     }
 
@@ -290,7 +332,12 @@ impl SimDrives {
                 if !operational(d) {
                     return;
                 }
-                d.state = transition(d.state, d.last_controlword, controlword);
+                let cause_active = now_ns < d.fault_until_ns;
+                let next = transition(d.state, d.last_controlword, controlword);
+                // A fault reset does not clear a fault whose cause remains.
+                if !(d.state == DriveState::Fault && cause_active) {
+                    d.state = next;
+                }
                 d.last_controlword = controlword;
                 d.target = target_velocity;
                 d.last_command_ns = Some(now_ns);
@@ -307,7 +354,7 @@ impl SimDrives {
                 .last_command_ns
                 .is_some_and(|t| now_ns.saturating_sub(t) <= self.p.command_timeout_ns);
             let running = d.powered && d.nmt == Some(NmtState::Operational) && d.mode == 3;
-            if running && d.state == DriveState::OperationEnabled && fresh {
+            if running && d.state == DriveState::OperationEnabled && fresh && !d.stuck {
                 *o = d.target as f64 * 1e-3;
             }
         }
@@ -318,9 +365,12 @@ impl SimDrives {
     pub fn observe(&mut self, rover: &BodyState) {
         let per_rad = cia402::COUNTS_PER_REV as f64 / (2.0 * core::f64::consts::PI);
         for (i, d) in self.drives.iter_mut().enumerate() {
-            d.velocity = (rover.wheel_speed[i] * 1000.0).round() as i32;
+            let angle = rover.wheel_angle[i];
+            d.spun_rad += (d.spin - 1.0) * (angle - d.last_angle_rad);
+            d.last_angle_rad = angle;
+            d.velocity = (rover.wheel_speed[i] * d.spin * 1000.0).round() as i32;
             // Encoders wrap like the drive's 32-bit position register.
-            d.position = ((rover.wheel_angle[i] * per_rad).round() as i64) as i32;
+            d.position = (((angle + d.spun_rad) * per_rad).round() as i64) as i32;
         }
     }
 }
@@ -409,6 +459,56 @@ mod tests {
         assert_eq!(t, [1.5, 0.0, 0.0, 0.0]);
         // Stale after the drive's timeout.
         assert_eq!(s.wheel_targets(300_000_000), [0.0; 4]);
+    }
+
+    /// Enable drive `node` and command it `mrad_s` at `t`.
+    fn enable(s: &mut SimDrives, node: u8, t: u64, mrad_s: i32) {
+        for cw in [0x0006u16, 0x0007, 0x000F] {
+            s.receive(t, &cia402::rpdo1(node, cw, mrad_s));
+        }
+    }
+
+    #[test]
+    fn a_blocked_wheel_is_held_and_a_spinning_one_over_reads() {
+        let mut s = started();
+        enable(&mut s, 1, 20_000_000, 1500);
+        enable(&mut s, 2, 20_000_000, 1500);
+        s.set_stuck(0, true);
+        assert_eq!(s.wheel_targets(21_000_000), [0.0, 1.5, 0.0, 0.0]);
+        s.set_stuck(0, false);
+        assert_eq!(s.wheel_targets(21_000_000)[0], 1.5);
+        // Both wheels turn 1 rad; wheel 2's encoder reads 2.5 rad.
+        s.set_spin(1, 2.5);
+        let mut b = BodyState::default();
+        b.wheel_speed = [1.0; WHEELS];
+        b.wheel_angle = [1.0; WHEELS];
+        s.observe(&b);
+        let per_rad = cia402::COUNTS_PER_REV as f64 / (2.0 * core::f64::consts::PI);
+        assert_eq!(s.drives[0].position, per_rad.round() as i32);
+        assert_eq!(s.drives[1].position, (2.5 * per_rad).round() as i32);
+        assert_eq!(s.drives[1].velocity, 2500);
+        // Rolling again, the encoder keeps what it over-read.
+        s.set_spin(1, 1.0);
+        b.wheel_angle = [2.0; WHEELS];
+        s.observe(&b);
+        assert_eq!(s.drives[1].position, (3.5 * per_rad).round() as i32);
+    }
+
+    #[test]
+    fn a_fault_is_reset_only_once_its_cause_has_cleared() {
+        let mut s = started();
+        enable(&mut s, 3, 20_000_000, 0);
+        s.inject_fault_until(2, 1_000_000_000);
+        let reset = |s: &mut SimDrives, t: u64| {
+            s.receive(t, &cia402::rpdo1(3, 0x0000, 0));
+            s.receive(t, &cia402::rpdo1(3, 0x0080, 0));
+        };
+        reset(&mut s, 500_000_000);
+        assert_eq!(s.state(2), Some(DriveState::Fault));
+        reset(&mut s, 1_000_000_000);
+        assert_eq!(s.state(2), Some(DriveState::SwitchOnDisabled));
+        enable(&mut s, 3, 1_010_000_000, 0);
+        assert_eq!(s.state(2), Some(DriveState::OperationEnabled));
     }
 
     #[test]
