@@ -479,9 +479,11 @@ mod tests {
         assert_eq!(s.wheel_targets(21_000_000)[0], 1.5);
         // Both wheels turn 1 rad; wheel 2's encoder reads 2.5 rad.
         s.set_spin(1, 2.5);
-        let mut b = BodyState::default();
-        b.wheel_speed = [1.0; WHEELS];
-        b.wheel_angle = [1.0; WHEELS];
+        let mut b = BodyState {
+            wheel_speed: [1.0; WHEELS],
+            wheel_angle: [1.0; WHEELS],
+            ..BodyState::default()
+        };
         s.observe(&b);
         let per_rad = cia402::COUNTS_PER_REV as f64 / (2.0 * core::f64::consts::PI);
         assert_eq!(s.drives[0].position, per_rad.round() as i32);
