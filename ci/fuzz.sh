@@ -16,7 +16,14 @@ fi
 export RUSTC_BOOTSTRAP=1
 for target in $(cargo fuzz list --fuzz-dir fuzz); do
   echo "== fuzz $target (${seconds} s)"
-  cargo fuzz run --fuzz-dir fuzz "$target" -- -max_total_time="$seconds" -rss_limit_mb=2048 2>&1 \
+  # New inputs go to fuzz/corpus (not kept); fuzz/seeds holds the kept
+  # starting points (real files, and inputs that once crashed).
+  mkdir -p "fuzz/corpus/$target"
+  dirs=("fuzz/corpus/$target")
+  if [ -d "fuzz/seeds/$target" ]; then
+    dirs+=("fuzz/seeds/$target")
+  fi
+  cargo fuzz run --fuzz-dir fuzz "$target" "${dirs[@]}" -- -max_total_time="$seconds" -rss_limit_mb=2048 2>&1 \
     | grep -E "^(#[0-9]+ +DONE|Done|==[0-9]+==|thread|SUMMARY|panicked)" || true
   # grep hides libFuzzer's progress lines; the exit status is cargo fuzz's.
   test "${PIPESTATUS[0]}" -eq 0

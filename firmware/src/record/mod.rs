@@ -4,6 +4,8 @@
 pub mod cdr;
 pub mod compare;
 pub mod encode;
+pub mod flatten;
+mod length_check;
 pub mod read;
 pub mod tap;
 pub mod topics;

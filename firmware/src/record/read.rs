@@ -6,7 +6,6 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use enumset::enum_set;
 use speleo_hal::replay::RecordedInput;
 use speleo_hal::Device;
 use thiserror::Error;
@@ -79,7 +78,8 @@ impl Recording {
     /// The last frame whose messages are all in the file.
     pub fn last_complete_frame(&self) -> Option<u64> {
         match self.frames() {
-            Some(n) => n.checked_sub(1),
+            // Frame numbers run past the count when the clock jumped.
+            Some(n) => n.checked_sub(1).max(self.max_frame),
             // The last frame seen may be cut by the lost chunk.
             None => self.max_frame.and_then(|f| f.checked_sub(1)),
         }
@@ -131,6 +131,12 @@ pub fn load(path: &Path) -> Result<Recording, ReadError> {
         path: p.clone(),
         source,
     })?;
+    parse(&bytes, &p)
+}
+
+/// A recording's bytes, as [`load`] reads them; `p` names it in errors.
+pub fn parse(bytes: &[u8], p: &str) -> Result<Recording, ReadError> {
+    let p = p.to_string();
     if bytes.len() < 8 || &bytes[..8] != mcap::MAGIC {
         return Err(ReadError::NotMcap {
             path: p,
@@ -139,18 +145,11 @@ pub fn load(path: &Path) -> Result<Recording, ReadError> {
     }
     // Read only the records that are wholly in the file; a cut tail means the
     // writer was killed, and any error inside the whole records is damage.
-    let scan = scan_records(&bytes);
+    let scan = scan_records(bytes);
     let finished = scan.records.last().is_some_and(|r| r.0 == 0x02);
     let cut = bytes.len() - scan.complete_len;
     let whole = &bytes[..scan.complete_len];
-    let options =
-        enum_set!(mcap::read::Options::IgnoreEndMagic | mcap::read::Options::ValidateChunkCrcs);
-    let records = mcap::read::ChunkFlattener::new_with_options(whole, options).map_err(|e| {
-        ReadError::NotMcap {
-            path: p.clone(),
-            why: e.to_string(),
-        }
-    })?;
+    let records = super::flatten::Flattened::new(whole, true, true);
     let mut rec = Recording {
         run: BTreeMap::new(),
         summary: None,
