@@ -254,16 +254,15 @@ fn every_fault_is_found_stops_the_rover_and_is_recovered_from() {
     }
 }
 
-#[test]
-fn a_recording_through_every_fault_is_complete_and_replays_identically() {
-    let s = Scratch::new();
-    let cfg = s.path("faults.toml");
-    std::fs::write(&cfg, SEQUENCE).expect("config");
+/// A recorded simulation with configuration `cfg`: its report, after
+/// checking that the recording is complete (nothing dropped, every message
+/// written in the file). The scratch directory holds `a.mcap`.
+fn recorded_sim(s: &Scratch, cfg: &str, seconds: f64) -> serde_json::Value {
+    let path = s.path("faults.toml");
+    std::fs::write(&path, cfg).expect("config");
     let (log, report) = (s.path("a.mcap"), s.path("a.json"));
-    sim_with_config(1, SEQUENCE_S, Some(&cfg), Some(&log), Some(&report));
+    sim_with_config(1, seconds, Some(&path), Some(&log), Some(&report));
     let r = read_json(&report);
-    assert_eq!(r["faults"]["detected"], 7);
-    assert_eq!(r["faults"]["recovered"], 7);
     assert_eq!(r["recorder"]["dropped_no_buffer"], 0);
     let bytes = std::fs::read(&log).expect("recording");
     let summary = mcap::Summary::read(&bytes)
@@ -271,68 +270,54 @@ fn a_recording_through_every_fault_is_complete_and_replays_identically() {
         .expect("present");
     let in_file = summary.stats.expect("statistics").message_count;
     assert_eq!(r["recorder"]["written"].as_u64(), Some(in_file));
+    r
+}
+
+/// The one fault of report `r`: found within `ms`, stopped for, recovered from.
+fn found_stopped_recovered(r: &serde_json::Value, ms: f64) -> &serde_json::Value {
+    let o = &r["faults"]["faults"][0];
+    let found = o["detected_after_ms"].as_f64();
+    assert!(found.is_some_and(|t| t <= ms), "{o}");
+    assert_eq!(o["safe_stop"], true);
+    assert!(o["recovered_after_ms"].as_f64().is_some(), "{o}");
+    assert_eq!(r["scheduler"]["mode_at_end"], "nominal");
+    o
+}
+
+#[test]
+fn a_recording_through_every_fault_is_complete_and_replays_identically() {
+    let s = Scratch::new();
+    let r = recorded_sim(&s, SEQUENCE, SEQUENCE_S);
+    assert_eq!(r["faults"]["detected"], 7);
+    assert_eq!(r["faults"]["recovered"], 7);
     // The devices' faults are in the recorded bytes; the bus-off errors
     // and the jump are injected again.
-    assert_eq!(replay(&log, None), std::process::ExitCode::SUCCESS);
+    assert_eq!(
+        replay(&s.path("a.mcap"), None),
+        std::process::ExitCode::SUCCESS
+    );
 }
 
 #[test]
 fn a_lidar_dropout_is_found_and_recovered_from_and_replays_identically() {
     let s = Scratch::new();
-    let cfg = s.path("lidar.toml");
-    std::fs::write(
-        &cfg,
-        "[sim]\nworld = \"flat\"\nfaults = [\"lidar-dropout@4+2\"]\n",
-    )
-    .expect("config");
-    let (log, report) = (s.path("a.mcap"), s.path("a.json"));
-    sim_with_config(1, 10.0, Some(&cfg), Some(&log), Some(&report));
-    let r = read_json(&report);
-    let o = &r["faults"]["faults"][0];
-    assert!(
-        o["detected_after_ms"]
-            .as_f64()
-            .is_some_and(|ms| ms <= 500.0),
-        "{o}"
-    );
+    let cfg = "[sim]\nworld = \"flat\"\nfaults = [\"lidar-dropout@4+2\"]\n";
+    let r = recorded_sim(&s, cfg, 10.0);
+    let o = found_stopped_recovered(&r, 500.0);
     assert_eq!(o["findings"][0], "lidar_silent");
-    assert_eq!(o["safe_stop"], true);
-    assert!(o["recovered_after_ms"].as_f64().is_some(), "{o}");
     assert_eq!(r["faults"]["false_alarms"], 0);
-    assert_eq!(replay(&log, None), std::process::ExitCode::SUCCESS);
+    assert_eq!(
+        replay(&s.path("a.mcap"), None),
+        std::process::ExitCode::SUCCESS
+    );
 }
 
 #[test]
 fn an_overrun_storm_is_found_when_budgets_are_enforced() {
     let s = Scratch::new();
-    let cfg = s.path("storm.toml");
     // The storm's 3 ms device polls against the io task's 400 us budget.
-    std::fs::write(
-        &cfg,
-        "[executive]\nenforce_policies_in_sim = true\n[sim]\nlidar = false\nfaults = [\"overrun-storm@3+2\"]\n",
-    )
-    .expect("config");
-    let (log, report) = (s.path("a.mcap"), s.path("a.json"));
-    sim_with_config(1, 9.0, Some(&cfg), Some(&log), Some(&report));
-    let r = read_json(&report);
-    let o = &r["faults"]["faults"][0];
-    assert!(
-        o["detected_after_ms"]
-            .as_f64()
-            .is_some_and(|ms| ms <= 1_000.0),
-        "{o}"
-    );
-    assert_eq!(o["safe_stop"], true);
-    assert!(o["recovered_after_ms"].as_f64().is_some(), "{o}");
-    assert_eq!(r["scheduler"]["mode_at_end"], "nominal");
-    // Overruns skip frames of the io task, never recorded messages.
-    assert_eq!(r["recorder"]["dropped_no_buffer"], 0);
-    let bytes = std::fs::read(&log).expect("recording");
-    let summary = mcap::Summary::read(&bytes)
-        .expect("summary")
-        .expect("present");
-    assert_eq!(
-        r["recorder"]["written"].as_u64(),
-        Some(summary.stats.expect("statistics").message_count)
-    );
+    // Overruns skip runs of the io task, never recorded messages.
+    let cfg = "[executive]\nenforce_policies_in_sim = true\n[sim]\nlidar = false\nfaults = [\"overrun-storm@3+2\"]\n";
+    let r = recorded_sim(&s, cfg, 9.0);
+    found_stopped_recovered(&r, 1_000.0);
 }
