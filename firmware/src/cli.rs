@@ -83,6 +83,11 @@ pub struct WcetArgs {
     /// Write every scenario's verdicts as JSON.
     #[arg(long, value_name = "OUT.json")]
     pub report: Option<PathBuf>,
+    /// Write the planner's quantum sized from the measured step times (the
+    /// slowest phase's p99.9 a unit, to fill 90 % of its window) as a
+    /// configuration file, with the figures it comes from.
+    #[arg(long, value_name = "OUT.toml")]
+    pub calibrate: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -409,6 +414,7 @@ pub fn main() -> ExitCode {
             a.scenario.as_deref(),
             a.config.as_ref(),
             a.report.as_ref(),
+            a.calibrate.as_ref(),
             progress,
         ),
         Command::Mesh(a) => modes::mesh(a, progress),

@@ -3,9 +3,11 @@
 //! point ahead on the route) to its first plan and to its proven optimum,
 //! so they count the graph's growth and the lattice's preparation too.
 
+use std::collections::BTreeMap;
+
 use serde::Serialize;
 
-use crate::tasks::planner::{PlannerCounters, PlannerTask};
+use crate::tasks::planner::{PlannerCounters, PlannerTask, PHASE_NAMES};
 
 #[derive(Clone, Debug, Serialize)]
 pub struct PlannerFigures {
@@ -28,6 +30,17 @@ pub struct PlannerFigures {
     pub graph_nodes_max: u64,
     pub graphs_full: u64,
     pub memory_bytes: usize,
+    /// Each phase's step times on this machine (the units of a step are
+    /// the task's quantum): what its units are calibrated from.
+    pub step_us: BTreeMap<&'static str, StepTimes>,
+}
+
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct StepTimes {
+    pub steps: u64,
+    pub p50_us: f64,
+    pub p999_us: f64,
+    pub max_us: f64,
 }
 
 /// The median of a report's figures (not on board: it sorts a copy).
@@ -64,6 +77,21 @@ pub fn figures(t: &PlannerTask, max_nodes: usize) -> PlannerFigures {
         graph_nodes_max: c.nodes_max,
         graphs_full: c.graphs_full,
         memory_bytes: t.memory_bytes(max_nodes),
+        step_us: PHASE_NAMES
+            .iter()
+            .zip(&t.step_times)
+            .filter(|(_, h)| h.count() > 0)
+            .map(|(n, h)| {
+                let us = |ns: u64| ns as f64 / 1000.0;
+                let times = StepTimes {
+                    steps: h.count(),
+                    p50_us: us(h.quantile_ns(0.5)),
+                    p999_us: us(h.quantile_ns(0.999)),
+                    max_us: us(h.max_ns()),
+                };
+                (*n, times)
+            })
+            .collect(),
     }
 }
 

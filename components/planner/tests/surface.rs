@@ -38,6 +38,8 @@ struct Plan {
     first: Option<u32>,
     path: Vec<[f64; 3]>,
     expansions: u64,
+    /// The most expansions one step made.
+    step_expansions_max: u64,
 }
 
 fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
@@ -45,6 +47,17 @@ fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
 }
 
 fn plan_with(m: &MlsMap, start: [f64; 4], goal: [f64; 4], params: SurfaceParams) -> Plan {
+    plan_in_steps(m, start, goal, params, 500)
+}
+
+/// Plan with ARA* steps of `units` units.
+fn plan_in_steps(
+    m: &MlsMap,
+    start: [f64; 4],
+    goal: [f64; 4],
+    params: SurfaceParams,
+    units: u32,
+) -> Plan {
     let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
     trav.build(m, [start[0], start[1], start[2]])
         .unwrap_or_else(|e| panic!("{e}"));
@@ -56,6 +69,7 @@ fn plan_with(m: &MlsMap, start: [f64; 4], goal: [f64; 4], params: SurfaceParams)
             first: None,
             path: Vec::new(),
             expansions: 0,
+            step_expansions_max: 0,
         };
     };
     let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, 16);
@@ -71,8 +85,12 @@ fn plan_with(m: &MlsMap, start: [f64; 4], goal: [f64; 4], params: SurfaceParams)
         AraParams::default(),
     );
     let mut first = None;
+    let mut step_expansions_max = 0;
     let cost = loop {
-        match a.step(&lat, 500) {
+        let before = a.stats().expansions;
+        let progress = a.step(&lat, units);
+        step_expansions_max = step_expansions_max.max(a.stats().expansions - before);
+        match progress {
             Progress::Searching => {}
             Progress::Solution { cost, .. } => {
                 first.get_or_insert(cost);
@@ -88,7 +106,22 @@ fn plan_with(m: &MlsMap, start: [f64; 4], goal: [f64; 4], params: SurfaceParams)
         first,
         path: lat.path_positions(&states),
         expansions: a.stats().expansions,
+        step_expansions_max,
     }
+}
+
+#[test]
+fn a_search_step_expands_at_most_its_units() {
+    // The executive's budget for the planner is a number of units, not a
+    // time: a step of 24 never expands a 25th state, whatever the map.
+    let m = world();
+    let (start, goal) = ([1.0, 1.5, 0.0, 0.0], [11.5, 1.5, 1.0, 0.0]);
+    let p = plan_in_steps(&m, start, goal, SurfaceParams::default(), 24);
+    assert!(p.cost.is_some(), "no plan");
+    assert!(p.expansions > 1_000, "{} expansions", p.expansions);
+    assert_eq!(p.step_expansions_max, 24);
+    // The same plan as in larger steps: the units cut the work, not the result.
+    assert_eq!(p.cost, plan(&m, start, goal).cost);
 }
 
 #[test]

@@ -21,6 +21,7 @@ use speleo_mapping::mls::{MlsMap, PatchKind};
 use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
 use speleo_planner::mprim::MprimFile;
 use speleo_planner::surface::{SurfaceLattice, SOLID_PER_CELL};
+use speleo_scheduler::histogram::Histogram;
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
@@ -162,6 +163,33 @@ pub struct PlannerTask {
     pub optimal_ms: Vec<u32>,
     pub final_eps_milli: Vec<u32>,
     pub counters: PlannerCounters,
+    /// Each phase's step times (by [`PHASE_NAMES`]), for calibrating its
+    /// units: measured only, never acted on, so outputs stay the same.
+    pub step_times: [Histogram; PHASE_NAMES.len()],
+}
+
+/// The phases whose steps are timed, in [`PlannerTask::step_times`] order.
+pub const PHASE_NAMES: [&str; 6] = [
+    "grow",
+    "pick",
+    "candidates",
+    "prepare",
+    "search",
+    "validate",
+];
+
+impl Phase {
+    fn timed_index(self) -> Option<usize> {
+        match self {
+            Phase::Idle => None,
+            Phase::Grow { .. } => Some(0),
+            Phase::Pick { .. } => Some(1),
+            Phase::Candidates => Some(2),
+            Phase::Prepare => Some(3),
+            Phase::Search => Some(4),
+            Phase::Validate => Some(5),
+        }
+    }
 }
 
 impl PlannerTask {
@@ -210,6 +238,7 @@ impl PlannerTask {
             optimal_ms: Vec::with_capacity(HISTORY),
             final_eps_milli: Vec::with_capacity(HISTORY),
             counters: PlannerCounters::default(),
+            step_times: std::array::from_fn(|_| Histogram::new()),
         })
     }
 
@@ -720,10 +749,28 @@ impl Task<Bus> for PlannerTask {
         if let Some(ex) = &mut self.explore {
             ex.observe(bus, cx.time_ns);
         }
+        let timed = self.phase.timed_index();
+        let started = std::time::Instant::now();
+        let went_on = self.work(bus, cx, units);
+        if let Some(i) = timed {
+            self.step_times[i].record(started.elapsed().as_nanos() as u64);
+        }
+        if !went_on || self.phase == Phase::Idle {
+            StepResult::Idle
+        } else {
+            StepResult::Continue
+        }
+    }
+}
+
+impl PlannerTask {
+    /// One step of the phase under way; false when the query could not
+    /// begin or go on.
+    fn work(&mut self, bus: &mut Bus, cx: &Context, units: u32) -> bool {
         match self.phase {
             Phase::Idle => {
                 if !self.begin_query(bus, cx.time_ns) {
-                    return StepResult::Idle;
+                    return false;
                 }
             }
             Phase::Grow { candidate } => {
@@ -743,7 +790,7 @@ impl Task<Bus> for PlannerTask {
                     if start_drivable {
                         self.phase = Phase::Pick { next: 0 };
                     } else if !self.begin_growth(mls, candidate + 1) {
-                        return StepResult::Idle;
+                        return false;
                     }
                 }
             }
@@ -767,11 +814,7 @@ impl Task<Bus> for PlannerTask {
             Phase::Search => self.search_step(bus, cx.time_ns, units),
             Phase::Validate => self.validate(bus, cx.time_ns, units as usize),
         }
-        if self.phase == Phase::Idle {
-            StepResult::Idle
-        } else {
-            StepResult::Continue
-        }
+        true
     }
 }
 
