@@ -83,9 +83,10 @@ pub struct WcetArgs {
     /// Write every scenario's verdicts as JSON.
     #[arg(long, value_name = "OUT.json")]
     pub report: Option<PathBuf>,
-    /// Write the planner's quantum sized from the measured step times (the
-    /// slowest phase's p99.9 a unit, to fill 90 % of its window) as a
-    /// configuration file, with the figures it comes from.
+    /// Write the planner's units per step, phase by phase, sized from the
+    /// measured step times (each phase's slowest p99.9 a unit fills 90 % of
+    /// the window) as a `[planner.step_units]` configuration, with the
+    /// figures it comes from.
     #[arg(long, value_name = "OUT.toml")]
     pub calibrate: Option<PathBuf>,
 }

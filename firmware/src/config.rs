@@ -10,10 +10,12 @@ use thiserror::Error;
 mod exploration;
 mod maps;
 mod planner;
+mod planner_steps;
 mod simulator;
 pub use exploration::ExplorationConfig;
 pub use maps::MapsConfig;
 pub use planner::PlannerConfig;
+pub use planner_steps::{PlannerStepUnits, MAX_STEP_UNITS, STEP_PHASES};
 pub use simulator::SimulatorConfig;
 
 #[derive(Debug, Error)]

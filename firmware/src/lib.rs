@@ -11,6 +11,7 @@ pub mod keyframe_clouds;
 pub mod maps_output;
 pub mod mission;
 pub mod modes;
+pub mod planner_calibration;
 pub mod planner_figures;
 pub mod plot;
 pub mod record;

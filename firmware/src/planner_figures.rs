@@ -6,6 +6,7 @@
 use std::collections::BTreeMap;
 
 use serde::Serialize;
+use speleo_scheduler::histogram::Histogram;
 
 use crate::tasks::planner::{PlannerCounters, PlannerTask, PHASE_NAMES};
 
@@ -30,17 +31,22 @@ pub struct PlannerFigures {
     pub graph_nodes_max: u64,
     pub graphs_full: u64,
     pub memory_bytes: usize,
-    /// Each phase's step times on this machine (the units of a step are
-    /// the task's quantum): what its units are calibrated from.
+    /// Each phase's step times on this machine and the units of its steps:
+    /// what `planner.step_units` is calibrated from.
     pub step_us: BTreeMap<&'static str, StepTimes>,
 }
 
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct StepTimes {
     pub steps: u64,
+    /// Units a step did (`planner.step_units`, capped by the quantum).
+    pub units: u32,
     pub p50_us: f64,
     pub p999_us: f64,
     pub max_us: f64,
+    /// The times themselves, for pooling runs (`speleo wcet --calibrate`).
+    #[serde(skip)]
+    pub histogram: Histogram,
 }
 
 /// The median of a report's figures (not on board: it sorts a copy).
@@ -79,15 +85,17 @@ pub fn figures(t: &PlannerTask, max_nodes: usize) -> PlannerFigures {
         memory_bytes: t.memory_bytes(max_nodes),
         step_us: PHASE_NAMES
             .iter()
-            .zip(&t.step_times)
-            .filter(|(_, h)| h.count() > 0)
-            .map(|(n, h)| {
+            .zip(t.step_times.iter().zip(t.step_units_run))
+            .filter(|(_, (h, _))| h.count() > 0)
+            .map(|(n, (h, units))| {
                 let us = |ns: u64| ns as f64 / 1000.0;
                 let times = StepTimes {
                     steps: h.count(),
+                    units,
                     p50_us: us(h.quantile_ns(0.5)),
                     p999_us: us(h.quantile_ns(0.999)),
                     max_us: us(h.max_ns()),
+                    histogram: h.clone(),
                 };
                 (*n, times)
             })

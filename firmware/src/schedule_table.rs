@@ -54,12 +54,10 @@ pub const TASKS: [&str; 12] = [
     "recorder",
 ];
 
-/// Work units of one planner step; see `tasks::planner`. Calibrated with
-/// `speleo wcet`: with 32 units the step's p99.9 was 1.25-1.3 ms on the
-/// route and exploration scenarios (the 1.0 x 0.8 m checked body and the
-/// ledge check cost more a unit than the unit's first sizing), so 24 fit
-/// the 1 ms window.
-pub const PLANNER_QUANTUM: u32 = 24;
+/// The most work units of one planner step: each phase does its own
+/// `planner.step_units` (calibrated with `speleo wcet --calibrate`), capped
+/// by this quantum.
+pub const PLANNER_QUANTUM: u32 = crate::config::MAX_STEP_UNITS;
 
 fn defaults() -> Vec<TaskSpec> {
     use OverrunPolicy::*;

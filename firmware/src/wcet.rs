@@ -22,8 +22,9 @@ use std::process::ExitCode;
 use serde::Serialize;
 
 use crate::cli::Outputs;
-use crate::config::Config;
+use crate::config::{Config, STEP_PHASES};
 use crate::mission::{MissionResult, TaskFigures};
+use crate::planner_calibration::planner_calibration;
 
 type Error = Box<dyn std::error::Error>;
 
@@ -218,10 +219,10 @@ fn print(s: &ScenarioReport) {
     if let Some(steps) = &s.planner_step_us {
         let phases: Vec<String> = steps
             .iter()
-            .map(|(n, t)| format!("{n} {:.0}/{:.0}", t.p50_us, t.p999_us))
+            .map(|(n, t)| format!("{n} {:.0}/{:.0} ({})", t.p50_us, t.p999_us, t.units))
             .collect();
         println!(
-            "  planner steps by phase, p50/p99.9 us: {}",
+            "  planner steps by phase, p50/p99.9 us (units): {}",
             phases.join(", ")
         );
     }
@@ -295,7 +296,7 @@ pub fn wcet(
     })
 }
 
-/// `--calibrate`: the planner's quantum from this run's step times.
+/// `--calibrate`: the planner's units per phase from this run's step times.
 fn write_calibration(
     path: &PathBuf,
     base: &Config,
@@ -306,86 +307,35 @@ fn write_calibration(
         .find(|s| s.name.as_str() == "planner")
         .and_then(|s| s.anytime)
         .ok_or("the planner is not an anytime task in this configuration")?;
-    let Some(c) = planner_calibration(scenarios, spec.quantum, spec.window_us) else {
+    let current = base.planner.step_units;
+    let Some(c) = planner_calibration(scenarios, current, spec.window_us) else {
         println!("calibration: no planner step was measured; nothing written");
         return Ok(());
     };
     std::fs::write(path, c.to_toml()).map_err(|e| format!("writing {}: {e}", path.display()))?;
     println!(
-        "calibration: planner quantum {} (was {}; {:.1} us a unit in the {} phase of {}), written to {}",
-        c.quantum,
-        spec.quantum,
-        c.unit_us(),
-        c.phase,
-        c.scenario,
+        "calibration: planner units per step, written to {}",
         path.display()
     );
-    Ok(())
-}
-
-/// The planner's quantum sized from measured step times.
-#[derive(Debug, PartialEq)]
-pub struct PlannerCalibration {
-    pub quantum: u32,
-    /// Where the slowest unit was measured: scenario, phase, its step
-    /// p99.9 and the units of that step.
-    pub scenario: String,
-    pub phase: &'static str,
-    pub step_p999_us: f64,
-    pub measured_quantum: u32,
-    pub window_us: u32,
-}
-
-impl PlannerCalibration {
-    pub fn unit_us(&self) -> f64 {
-        self.step_p999_us / self.measured_quantum.max(1) as f64
-    }
-
-    pub fn to_toml(&self) -> String {
-        format!(
-            "# Written by `speleo wcet --calibrate`. The slowest planner unit was\n\
-             # measured in the {} scenario's {} phase: a step of {} units took\n\
-             # {:.0} us at p99.9, {:.1} us a unit; {} units fill 90 % of the\n\
-             # {} us window.\n\
-             [tasks.planner]\nquantum = {}\n",
-            self.scenario,
-            self.phase,
-            self.measured_quantum,
-            self.step_p999_us,
-            self.unit_us(),
-            self.quantum,
-            self.window_us,
-            self.quantum
-        )
-    }
-}
-
-/// The quantum that fills 90 % of `window_us` with units as slow as the
-/// slowest phase's p99.9 step (run with `quantum` units) in any scenario.
-pub fn planner_calibration(
-    scenarios: &[ScenarioReport],
-    quantum: u32,
-    window_us: u32,
-) -> Option<PlannerCalibration> {
-    let mut worst: Option<(&str, &'static str, f64)> = None;
-    for s in scenarios {
-        for (phase, t) in s.planner_step_us.iter().flatten() {
-            if worst.is_none_or(|w| t.p999_us > w.2) {
-                worst = Some((&s.name, phase, t.p999_us));
-            }
+    for ((name, was), now) in STEP_PHASES
+        .iter()
+        .zip(current.as_array())
+        .zip(c.units.as_array())
+    {
+        let from = c.measured.iter().find(|m| m.phase == *name);
+        match from {
+            Some(m) => println!(
+                "  {name:<10} {now:>4} (was {was}; {:.1} us a unit at p99.9 over {} steps)",
+                m.unit_us(),
+                m.steps
+            ),
+            None => println!(
+                "  {name:<10} {now:>4} (kept: fewer than {} steps of it measured)",
+                crate::planner_calibration::MIN_STEPS
+            ),
         }
     }
-    let (scenario, phase, step) = worst?;
-    let unit = step / quantum.max(1) as f64;
-    let fits = (0.9 * window_us as f64 / unit.max(1e-3)).floor();
-    Some(PlannerCalibration {
-        quantum: fits.clamp(1.0, 1_000_000.0) as u32,
-        scenario: scenario.to_string(),
-        phase,
-        step_p999_us: step,
-        measured_quantum: quantum,
-        window_us,
-    })
+    Ok(())
 }
 
 #[cfg(test)]
@@ -422,37 +372,6 @@ mod tests {
             v.iter().map(|t| t.pass).collect::<Vec<_>>(),
             [true, false, true]
         );
-    }
-
-    #[test]
-    fn the_planner_quantum_fills_90_percent_of_the_window_at_the_slowest_unit() {
-        let steps = |p999: f64| {
-            let t = crate::planner_figures::StepTimes {
-                steps: 10,
-                p50_us: 1.0,
-                p999_us: p999,
-                max_us: p999,
-            };
-            Some([("prepare", t), ("search", t)].into_iter().collect())
-        };
-        let scenario = |name: &str, p999: f64| ScenarioReport {
-            name: name.into(),
-            about: String::new(),
-            world: String::new(),
-            sim_time_s: 0.0,
-            wall_time_s: 0.0,
-            memory: None,
-            planner_step_us: steps(p999),
-            tasks: Vec::new(),
-            pass: true,
-        };
-        let both = [scenario("a", 600.0), scenario("b", 1_080.0)];
-        let c = planner_calibration(&both, 24, 1_000).expect("measured");
-        // 45 us a unit: 20 units fill 900 us.
-        assert_eq!((c.quantum, c.scenario.as_str()), (20, "b"));
-        let back = Config::from_toml(&c.to_toml()).expect("the calibration is a configuration");
-        assert_eq!(back.tasks["planner"].quantum, Some(20));
-        assert!(planner_calibration(&[], 24, 1_000).is_none());
     }
 
     #[test]

@@ -64,7 +64,7 @@ impl Default for SimulatorParams {
             max_blocks: 16_384,
             margin_m: 2.0,
             cloud_range_m: 15.0,
-            tile_m: 0.5,
+            tile_m: 0.25,
             dt_s: 0.004,
             settle_s: 0.5,
             goal_tolerance_m: 0.5,

@@ -59,6 +59,11 @@ pub struct SimCounters {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Phase {
     Idle,
+    /// Taking the last validation's world down, a slice of its ground's
+    /// colliders at a time.
+    Teardown,
+    /// Clearing the TSDF for this validation's box.
+    Clear,
     /// Integrating keyframe `k` from point `from`.
     Integrate {
         k: usize,
@@ -72,13 +77,18 @@ enum Phase {
     Done,
 }
 
-/// Work units, sized as the planner's (~30-40 us each; a 1 ms window holds
-/// 24) from `benches/validation_phases.rs` on the short tube: 256 points
-/// integrated (~31 us), a 0.5 m tile meshed and added to the world (median
-/// ~0.2 ms, p90 ~0.45 ms), a physics step (~190 us).
+/// Work units of ~25-30 us at the median, from
+/// `benches/validation_phases.rs` on the short tube: 256 points integrated
+/// (~28 us), a 0.25 m tile meshed and added to the world (~10 us and
+/// ~0.85 us a triangle: median ~46 us, 0.5 ms for the 600 triangles of a
+/// wall), a physics step (~160 us, p99.9 ~400 us), 32 ground colliders
+/// removed (~25 us), the TSDF cleared (~220 us).
 const POINTS_PER_UNIT: usize = 256;
 const UNITS_PER_STEP: usize = 6;
-const UNITS_PER_TILE: usize = 12;
+/// A tile costs a unit and one more for each of these triangles.
+const TRIANGLES_PER_UNIT: usize = 32;
+const COLLIDERS_PER_UNIT: usize = 32;
+const UNITS_PER_CLEAR: usize = 8;
 /// The ribbon of ground along the plan lies this far under the planner's
 /// ground, m.
 const RIBBON_DROP_M: f32 = 0.03;
@@ -111,6 +121,8 @@ pub struct InternalSim {
     /// Steps since motion began, once it has.
     moving_since: Option<u64>,
     time_allowed_s: f64,
+    /// The world's box, low and high corners.
+    bounds: ([f64; 3], [f64; 3]),
     /// Stuck detection: when, where and at which heading progress was
     /// last seen (turning on the spot is progress too).
     anchor: (f64, [f64; 2], f64),
@@ -135,6 +147,7 @@ impl InternalSim {
             targets: [0.0; 4],
             moving_since: None,
             time_allowed_s: 0.0,
+            bounds: ([0.0; 3], [0.0; 3]),
             anchor: (0.0, [0.0; 2], 0.0),
             prediction: Prediction::with_capacity(),
             scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
@@ -167,9 +180,9 @@ impl InternalSim {
             }
         }
         let m = self.p.margin_m;
-        self.terrain.begin(
-            // Drops a metre under the plan; walls and roof up to where
-            // the body (0.7 m) could meet them.
+        // Drops a metre under the plan; walls and roof up to where the body
+        // (0.7 m) could meet them.
+        self.bounds = (
             [lo[0] - m, lo[1] - m, lo[2] - 1.0],
             [hi[0] + m, hi[1] + m, hi[2] + 1.5],
         );
@@ -180,7 +193,6 @@ impl InternalSim {
             .sum();
         self.time_allowed_s = self.p.time_factor * length / self.p.follower.cruise_speed.max(0.05)
             + self.p.time_extra_s;
-        self.rover = None;
         self.prediction.clear();
         self.verdict = None;
         self.moving_since = None;
@@ -188,13 +200,15 @@ impl InternalSim {
         self.targets = [0.0; 4];
         self.limiter.halt();
         self.counters.runs += 1;
-        self.phase = Phase::Integrate { k: 0, from: 0 };
+        // The last world is taken down and the TSDF cleared in the steps.
+        self.phase = Phase::Teardown;
     }
 
     /// What the next step works on: "integrate", "ground", "drive", or
     /// "idle" (no validation, or its verdict is in).
     pub fn work(&self) -> &'static str {
         match self.phase {
+            Phase::Teardown | Phase::Clear => "clear",
             Phase::Integrate { .. } => "integrate",
             Phase::Ground { .. } => "ground",
             Phase::Drive => "drive",
@@ -220,27 +234,43 @@ impl InternalSim {
         self.terrain.memory_bytes()
     }
 
-    /// Up to `units` of work; the verdict once there is one.
+    /// Up to `units` of work (at least one item of it, at most `units`
+    /// but for a tile's triangles, which are known only once it is
+    /// meshed); the verdict once there is one.
     pub fn step(&mut self, clouds: &impl CloudSource, units: usize) -> Option<Verdict> {
         let mut left = units.max(1);
+        let mut first = true;
         while left > 0 {
-            match self.phase {
+            let cost = match self.phase {
                 Phase::Idle | Phase::Done => return self.verdict,
-                Phase::Integrate { k, from } => {
-                    left = left.saturating_sub(1);
-                    self.phase = self.integrate(clouds, k, from);
+                Phase::Teardown | Phase::Integrate { .. } | Phase::Ground { .. } => 1,
+                Phase::Clear => UNITS_PER_CLEAR,
+                Phase::Drive => UNITS_PER_STEP,
+            };
+            if cost > left && !first {
+                break;
+            }
+            first = false;
+            left -= cost.min(left);
+            match self.phase {
+                Phase::Idle | Phase::Done => {}
+                Phase::Teardown => self.phase = self.teardown(),
+                Phase::Clear => {
+                    self.terrain.begin(self.bounds.0, self.bounds.1);
+                    self.phase = Phase::Integrate { k: 0, from: 0 };
                 }
+                Phase::Integrate { k, from } => self.phase = self.integrate(clouds, k, from),
                 Phase::Ground { tile } if tile < self.terrain.tiles && !self.near_plan(tile) => {
                     // Ground the rover cannot reach on this plan.
-                    left = left.saturating_sub(1);
                     self.phase = Phase::Ground { tile: tile + 1 };
                 }
                 Phase::Ground { tile } => {
-                    left = left.saturating_sub(UNITS_PER_TILE);
+                    let before = self.terrain.triangles;
                     self.phase = self.ground(tile);
+                    let extra = (self.terrain.triangles - before) / TRIANGLES_PER_UNIT;
+                    left = left.saturating_sub(extra);
                 }
                 Phase::Drive => {
-                    left = left.saturating_sub(UNITS_PER_STEP);
                     if let Some(v) = self.drive() {
                         self.verdict = Some(v);
                         self.phase = Phase::Done;
@@ -249,6 +279,18 @@ impl InternalSim {
             }
         }
         self.verdict
+    }
+
+    /// A slice of the last world's colliders removed; the world dropped
+    /// once its ground is gone.
+    fn teardown(&mut self) -> Phase {
+        if let Some(r) = &mut self.rover {
+            if r.remove_ground(COLLIDERS_PER_UNIT) > 0 {
+                return Phase::Teardown;
+            }
+        }
+        self.rover = None;
+        Phase::Clear
     }
 
     fn integrate(&mut self, clouds: &impl CloudSource, k: usize, from: usize) -> Phase {

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{range, ConfigError};
+use super::{range, ConfigError, PlannerStepUnits};
 
 /// The checked rectangle is the body (0.9 x 0.7 m) with this much all
 /// round, m: the follower strays from the path by a few centimetres (more
@@ -50,6 +50,8 @@ pub struct PlannerConfig {
     /// An SBPL `.mprim` file at the map's resolution; empty: the
     /// generated set for the rover (`speleo primitives`).
     pub mprim: String,
+    /// Work units of one step in each phase (`[planner.step_units]`).
+    pub step_units: PlannerStepUnits,
 }
 
 impl Default for PlannerConfig {
@@ -75,6 +77,7 @@ impl Default for PlannerConfig {
             body_width_m: s.body_width_m + 2.0 * BODY_MARGIN_M,
             clearance_weight: s.clearance_weight,
             mprim: String::new(),
+            step_units: PlannerStepUnits::default(),
         }
     }
 }
@@ -169,7 +172,7 @@ impl PlannerConfig {
             100.0,
             "0..=100",
         )?;
-        Ok(())
+        self.step_units.validate()
     }
 
     pub fn trav_params(&self) -> speleo_traversability::TravParams {

@@ -166,17 +166,14 @@ pub struct PlannerTask {
     /// Each phase's step times (by [`PHASE_NAMES`]), for calibrating its
     /// units: measured only, never acted on, so outputs stay the same.
     pub step_times: [Histogram; PHASE_NAMES.len()],
+    /// Units a step of each phase does (`planner.step_units`)...
+    step_units: [u32; PHASE_NAMES.len()],
+    /// ...and did, capped by the scheduler's quantum (0: no step yet).
+    pub step_units_run: [u32; PHASE_NAMES.len()],
 }
 
 /// The phases whose steps are timed, in [`PlannerTask::step_times`] order.
-pub const PHASE_NAMES: [&str; 6] = [
-    "grow",
-    "pick",
-    "candidates",
-    "prepare",
-    "search",
-    "validate",
-];
+pub use crate::config::STEP_PHASES as PHASE_NAMES;
 
 impl Phase {
     fn timed_index(self) -> Option<usize> {
@@ -239,6 +236,8 @@ impl PlannerTask {
             final_eps_milli: Vec::with_capacity(HISTORY),
             counters: PlannerCounters::default(),
             step_times: std::array::from_fn(|_| Histogram::new()),
+            step_units: cfg.step_units.as_array(),
+            step_units_run: [0; PHASE_NAMES.len()],
         })
     }
 
@@ -742,14 +741,22 @@ impl PlannerTask {
 impl Task<Bus> for PlannerTask {
     fn run(&mut self, _bus: &mut Bus, _cx: &Context) {}
 
-    /// One phase's work for one quantum of units: graph nodes grown, nodes
-    /// scanned, lattice preparation units, or expansions.
+    /// One phase's work for its units (`planner.step_units`, at most the
+    /// scheduler's quantum): graph nodes grown, nodes scanned, lattice
+    /// preparation units, expansions or internal simulator units.
     fn step(&mut self, bus: &mut Bus, cx: &Context, quantum: u32) -> StepResult {
-        let units = quantum.max(1);
         if let Some(ex) = &mut self.explore {
             ex.observe(bus, cx.time_ns);
         }
         let timed = self.phase.timed_index();
+        let units = match timed {
+            Some(i) => {
+                let u = self.step_units[i].min(quantum).max(1);
+                self.step_units_run[i] = u;
+                u
+            }
+            None => quantum.max(1),
+        };
         let started = std::time::Instant::now();
         let went_on = self.work(bus, cx, units);
         if let Some(i) = timed {

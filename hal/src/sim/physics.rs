@@ -161,6 +161,8 @@ pub struct PhysicsRover {
     /// Times the chassis struck a wall, the ceiling or a boulder's side
     /// (each touch counts once, however long it lasts).
     pub collisions: u64,
+    /// The ground's colliders, for taking the world down in slices.
+    ground: Vec<ColliderHandle>,
 }
 
 fn v3(a: [f64; 3]) -> Vector {
@@ -184,7 +186,8 @@ impl PhysicsRover {
         world.gravity = Vector::new(0.0, 0.0, -GRAVITY as f32);
         world.integration_parameters.dt = dt_s as f32;
         world.integration_parameters.num_solver_iterations = p.solver_iterations as usize;
-        add_ground(&mut world, p, mesh, TriMeshFlags::empty())?;
+        let mut ground = Vec::new();
+        add_ground(&mut world, p, mesh, TriMeshFlags::empty(), &mut ground)?;
 
         let orientation = quat::from_ypr(start[3], 0.0, 0.0);
         let base = [start[0], start[1], start[2] + p.wheel_radius_m + 0.01];
@@ -242,6 +245,7 @@ impl PhysicsRover {
             chassis_collider,
             in_collision: false,
             collisions: 0,
+            ground,
         };
         rover.state = rover.read_state(0, None, dt_s);
         Ok(rover)
@@ -250,7 +254,27 @@ impl PhysicsRover {
     /// Add more of the world's surface (the internal simulator builds its
     /// ground a piece at a time).
     pub fn add_ground(&mut self, mesh: &Mesh) -> Result<(), String> {
-        add_ground(&mut self.world, &self.p, mesh, TriMeshFlags::empty())
+        add_ground(
+            &mut self.world,
+            &self.p,
+            mesh,
+            TriMeshFlags::empty(),
+            &mut self.ground,
+        )
+    }
+
+    /// Remove up to `max` of the ground's colliders (the last added
+    /// first); how many are left. Dropping a world of a thousand triangle
+    /// meshes at once takes about a millisecond: this spreads it over
+    /// bounded steps.
+    pub fn remove_ground(&mut self, max: usize) -> usize {
+        for _ in 0..max {
+            let Some(h) = self.ground.pop() else {
+                break;
+            };
+            self.world.remove_collider(h);
+        }
+        self.ground.len()
     }
 
     /// The same for a mesh of many small triangles (a TSDF's): contacts
@@ -259,8 +283,9 @@ impl PhysicsRover {
     /// allow it is added as it is.
     pub fn add_ground_smooth(&mut self, mesh: &Mesh) -> Result<(), String> {
         let flags = TriMeshFlags::MERGE_DUPLICATE_VERTICES | TriMeshFlags::FIX_INTERNAL_EDGES;
-        add_ground(&mut self.world, &self.p, mesh, flags)
-            .or_else(|_| add_ground(&mut self.world, &self.p, mesh, TriMeshFlags::empty()))
+        let (world, p, ground) = (&mut self.world, &self.p, &mut self.ground);
+        add_ground(world, p, mesh, flags, ground)
+            .or_else(|_| add_ground(world, p, mesh, TriMeshFlags::empty(), ground))
     }
 
     pub fn params(&self) -> &PhysicsParams {
@@ -419,8 +444,8 @@ fn add_ground(
     p: &PhysicsParams,
     mesh: &Mesh,
     flags: TriMeshFlags,
+    added: &mut Vec<ColliderHandle>,
 ) -> Result<(), String> {
-    let ground = world.insert_body(RigidBodyBuilder::fixed());
     let kinds = [
         Surface::Rock,
         Surface::Boulder,
@@ -453,8 +478,15 @@ fn add_ground(
         let collider = ColliderBuilder::trimesh_with_flags(vertices, triangles, flags)
             .map_err(|e| format!("the world mesh cannot be driven on: {e:?}"))?
             .friction(p.friction(kind) as f32)
-            .friction_combine_rule(CoefficientCombineRule::Min);
-        world.insert_collider(collider, Some(ground));
+            .friction_combine_rule(CoefficientCombineRule::Min)
+            // The ground is fixed: its mass does not matter, and computing
+            // it from the triangles (which rapier does for every new
+            // collider in the next step) took ~3 ms on a 65k-triangle
+            // internal-simulator world.
+            .mass_properties(MassProperties::default());
+        // No parent body: a static collider, and one body fewer for rapier
+        // to take in (the internal simulator adds a thousand tiles).
+        added.push(world.insert_collider(collider, None));
     }
     Ok(())
 }
