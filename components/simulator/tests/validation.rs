@@ -79,19 +79,43 @@ fn validate_plan(
     z: impl Fn(f64) -> f64 + Copy,
     plan: Vec<[f64; 4]>,
 ) -> (Outcome, Vec<[f64; 3]>, f64) {
-    let scans = Scans::new(z);
     let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+    run(&mut sim, z, plan, 32)
+}
+
+/// One validation in `sim`, in steps of `units`.
+fn run(
+    sim: &mut InternalSim,
+    z: impl Fn(f64) -> f64 + Copy,
+    plan: Vec<[f64; 4]>,
+    units: usize,
+) -> (Outcome, Vec<[f64; 3]>, f64) {
+    let scans = Scans::new(z);
     let p = SimulatorParams::default();
     sim.begin([0.0, 0.0, z(0.0) + p.base_height_m, 0.0], plan);
     let mut steps = 0;
     let v = loop {
-        if let Some(v) = sim.step(&scans, 32) {
+        if let Some(v) = sim.step(&scans, units) {
             break v;
         }
         steps += 1;
-        assert!(steps < 200_000, "no verdict");
+        assert!(steps < 2_000_000, "no verdict");
     };
     (v.outcome, sim.prediction().to_vec(), v.goal_error_m)
+}
+
+#[test]
+fn a_validation_does_not_depend_on_its_steps_units_or_the_world_before() {
+    let flat = |_: f64| 0.0;
+    let bumpy = |x: f64| if x > 2.0 { 0.08 } else { 0.0 };
+    let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+    let whole = run(&mut sim, flat, plan(flat), 100_000);
+    // Another world in between: the next validation takes it down first.
+    run(&mut sim, bumpy, plan(bumpy), 7);
+    let sliced = run(&mut sim, flat, plan(flat), 1);
+    assert_eq!(sliced.0, whole.0);
+    assert_eq!(sliced.1, whole.1, "the same prediction");
+    assert_eq!(sliced.2.to_bits(), whole.2.to_bits());
 }
 
 #[test]
