@@ -123,7 +123,21 @@ impl CandidateScan {
         &self.best
     }
 
+    /// Keep `c` among the best unless a better one lies within the
+    /// rejection radius; worse ones within it go. Neighbouring patches of
+    /// one frontier would otherwise fill the list, and when that goal
+    /// cannot be reached, every one of them would be planned to in turn
+    /// (in the garage, eight goals along one wall each took a search to
+    /// its expansion limit).
     fn keep(&mut self, c: Candidate) {
+        let r2 = self.p.rejected_radius_m.powi(2);
+        let near = |b: &Candidate| {
+            (b.position[0] - c.position[0]).powi(2) + (b.position[1] - c.position[1]).powi(2) <= r2
+        };
+        if self.best.iter().any(|b| b.score <= c.score && near(b)) {
+            return;
+        }
+        self.best.retain(|b| !near(b));
         let at = self
             .best
             .iter()

@@ -54,11 +54,20 @@ fn the_open_end_of_a_corridor_is_the_best_candidate() {
     let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
     cov.mark(0.0, 0.0, 0.2, 3.0);
     let best = scan(&t, &cov, &[], 100);
-    assert_eq!(best.len(), MAX_CANDIDATES);
+    assert!(!best.is_empty() && best.len() <= MAX_CANDIDATES);
     // At the open end, where the map stops.
     assert!(best[0].position[0] > 11.5, "{:?}", best[0]);
     assert!(best[0].unexplored_m2 > 0.5, "{:?}", best[0]);
     assert!(best.windows(2).all(|w| w[0].score <= w[1].score));
+    // One candidate per place: the open end's patches do not fill the
+    // list (each would be tried in turn if that goal failed).
+    let radius = CandidateParams::default().rejected_radius_m;
+    for (i, a) in best.iter().enumerate() {
+        for b in &best[i + 1..] {
+            let d = (a.position[0] - b.position[0]).hypot(a.position[1] - b.position[1]);
+            assert!(d > radius, "{a:?} and {b:?} are {d:.2} m apart");
+        }
+    }
     // Slices of any size give the same list.
     assert_eq!(scan(&t, &cov, &[], 1), best);
     assert_eq!(scan(&t, &cov, &[], usize::MAX), best);

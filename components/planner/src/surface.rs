@@ -403,8 +403,11 @@ impl SurfaceLattice {
         let nodes = self.trav.nodes();
         if i >= nodes.len() {
             let g = self.goal.0;
-            self.heuristic[g as usize] = 0;
-            self.open.push(Reverse((0, g)));
+            // A goal no primitive may end on is reached from nowhere.
+            if self.enterable(g) {
+                self.heuristic[g as usize] = 0;
+                self.open.push(Reverse((0, g)));
+            }
             return Prep::CostToGo;
         }
         let res = self.trav.resolution();
@@ -438,8 +441,34 @@ impl SurfaceLattice {
         Prep::Clear(i + 1)
     }
 
+    /// Whether a primitive may pass node `j` (drivable, with room for the
+    /// body's width, or near the start).
+    fn enterable(&self, j: u32) -> bool {
+        let n = &self.trav.nodes()[j as usize];
+        let crowded = (self.blocked_d2[j as usize] as f64) < self.inscribed_d2;
+        n.class.is_drivable() && (!crowded || self.near_escape(n))
+    }
+
+    /// Whether a path from `node` to the goal may exist, once prepared:
+    /// false when the cost-to-go reached neither it nor a neighbour (a
+    /// primitive's first step; the start itself may be crowded): the goal
+    /// has no room for the body, or no corridor wide enough joins them, and
+    /// a search would only use up its expansions.
+    pub fn reaches(&self, node: u32) -> bool {
+        let finite = |j: u32| {
+            self.heuristic
+                .get(j as usize)
+                .is_some_and(|&h| h < INFINITE_COST)
+        };
+        let Some(n) = self.trav.node(node) else {
+            return false;
+        };
+        self.prep == Prep::Ready
+            && (finite(node) || n.neighbours.iter().any(|&j| j != NONE && finite(j)))
+    }
+
     /// A few steps of Dijkstra from the goal: travel time at the forward
-    /// speed over the graph, ms, scaled to stay admissible.
+    /// speed over the nodes a path may pass, ms, scaled to stay admissible.
     fn settle(&mut self) -> Prep {
         let nodes = self.trav.nodes();
         // Straight over 8-neighbour length is at least 1 / 1.0824.
@@ -454,7 +483,9 @@ impl SurfaceLattice {
             }
             let a = &nodes[i as usize];
             for (k, &j) in a.neighbours.iter().enumerate() {
-                if j == NONE || !nodes[j as usize].class.is_drivable() {
+                // Only over nodes a path may pass (`apply`'s test): a node
+                // left at infinity has no path to the goal at all.
+                if j == NONE || !self.enterable(j) {
                     continue;
                 }
                 let b = &nodes[j as usize];

@@ -248,3 +248,57 @@ fn growth_in_slices_gives_the_whole_build_and_a_window_keeps_it_in() {
         .begin(&m, [5.5, 3.0, 0.0], Some(w))
         .is_err_and(|e| e.to_string().contains("no ground patch")));
 }
+
+/// The garage's ramp is a 0.25 m slab rising at 14 degrees from the floor:
+/// a metre from its foot its underside leaves the floor, and a rover
+/// beside it sees the floor under it through the widening gap. The ramp
+/// must still be climbable from the floor at its foot.
+#[test]
+fn a_ramp_slab_over_floor_seen_beneath_it_is_still_climbed() {
+    let mut m = mls();
+    let rise = 14f64.to_radians().tan();
+    // Floor all round, and under the ramp from where its underside leaves
+    // the floor: the worst case, where the floor under the slab's low end
+    // and its top lie within the MLS's gap and merge into tall patches.
+    let seen_under = 3.0 + 0.25 / rise;
+    surface(&mut m, (0.0, 3.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (3.0, 14.0), (0.0, 0.5), |_, _| 0.0);
+    surface(&mut m, (3.0, 14.0), (3.5, 4.0), |_, _| 0.0);
+    surface(&mut m, (seen_under, 14.0), (0.5, 3.5), |_, _| 0.0);
+    // The ramp from x = 3 over y in [0.5, 3.5): top `rise * (x - 3)`.
+    let ramp = |x: f64, _: f64| rise * (x - 3.0);
+    let mut top = Vec::new();
+    let mut px = 3.025;
+    while px < 13.0 {
+        let mut py = 0.525;
+        while py < 3.5 {
+            top.push([px, py, ramp(px, py)]);
+            py += 0.05;
+        }
+        px += 0.05;
+    }
+    m.insert_points(&top);
+    // Its sides from the underside up to the top, as the LiDAR sees them
+    // from beside the ramp.
+    for y in [0.5, 3.45] {
+        let mut px = 3.025;
+        while px < 13.0 {
+            let t = ramp(px, y);
+            let mut h = (t - 0.25).max(0.0);
+            while h <= t {
+                m.insert_points(&[[px, y + 0.025, h]]);
+                h += 0.05;
+            }
+            px += 0.05;
+        }
+    }
+    let t = build(&m, [1.0, 2.0, 0.0]);
+    // Half way up, in the middle of the ramp.
+    let up = t
+        .node_at(8.0, 2.0, ramp(8.0, 2.0), 0.15)
+        .and_then(|i| t.node(i));
+    assert!(
+        up.is_some_and(|n| n.class.is_drivable()),
+        "the ramp is not reached: {up:?}"
+    );
+}

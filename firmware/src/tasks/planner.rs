@@ -809,6 +809,13 @@ impl PlannerTask {
             }
             Phase::Prepare => {
                 if self.lat.prepare(bus.surface.serving(), units as usize) {
+                    let (start, _) = self.lat.decode(self.query.start_state);
+                    if !self.lat.reaches(start) {
+                        // No corridor wide enough leads there: not worth
+                        // a search to its expansion limit.
+                        self.goal_failed();
+                        return true;
+                    }
                     self.search.start(
                         &self.lat,
                         self.query.start_state,
