@@ -442,7 +442,8 @@ impl SurfaceLattice {
     }
 
     /// Whether a primitive may pass node `j` (drivable, with room for the
-    /// body's width, or near the start).
+    /// body's width, or near the start): `apply`'s test, which the
+    /// cost-to-go follows too.
     fn enterable(&self, j: u32) -> bool {
         let n = &self.trav.nodes()[j as usize];
         let crowded = (self.blocked_d2[j as usize] as f64) < self.inscribed_d2;
@@ -549,11 +550,10 @@ impl SurfaceLattice {
             if next == NONE {
                 return None;
             }
-            let b = &nodes[next as usize];
-            let crowded = (self.blocked_d2[next as usize] as f64) < self.inscribed_d2;
-            if !b.class.is_drivable() || (crowded && !self.near_escape(b)) {
+            if !self.enterable(next) {
                 return None;
             }
+            let b = &nodes[next as usize];
             let xy = if k % 2 == 0 {
                 res
             } else {
