@@ -28,6 +28,9 @@ pub struct Cloud {
     /// Sensor time of the first firing, microseconds past the hour (plus
     /// whole hours since start).
     pub start_us: f64,
+    /// When the packet that completed it had fired its last block, same
+    /// clock (the cloud's stamp is that packet's arrival).
+    pub end_us: f64,
     /// Point times are seconds after the first firing.
     pub points: Vec<speleo_hal::hdl32e::Point>,
 }

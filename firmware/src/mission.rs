@@ -309,7 +309,7 @@ pub fn run<C: FrameClock>(
     let mut t_io = io::IoTask::new(&hw);
     let mut t_lidar = build_lidar_driver(cfg)?;
     // 100 Hz outputs; 100 ms for each acknowledgement, 5 tries.
-    let mut t_imu = imu_driver::ImuDriver::new(100, 100_000_000, 5);
+    let mut t_imu = imu_driver::ImuDriver::new(100, 100_000_000, 5, cfg.devices.imu_baud);
     let mut t_drive = drive_driver::DriveDriver::default();
     let mut t_odo = odometry::OdometryTask::new(OdometryParams {
         wheel_radius_m: r.wheel_radius_m,

@@ -21,7 +21,7 @@ impl TruthTrack {
     }
 
     /// Interpolated pose at `t_ns` (linear position, normalised linear
-    /// quaternion: frames are a millisecond apart), `None` outside the track.
+    /// quaternion: frames are 10 ms apart), `None` outside the track.
     fn at(&self, t_ns: u64) -> Option<([f64; 3], [f64; 4])> {
         let i = self.samples.partition_point(|s| s.0 <= t_ns);
         if i == 0 || i >= self.samples.len() {

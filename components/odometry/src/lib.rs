@@ -136,6 +136,11 @@ pub struct Odometry {
     /// number of samples it holds.
     gyro_yaw: f64,
     gyro_samples: u32,
+    /// The last accepted rate of turn (body, rad/s) and the velocity of the
+    /// last wheel step (odometry frame, m/s): `pose_at` carries the pose on
+    /// with them.
+    last_gyro: Vector3<f64>,
+    last_velocity: Vector3<f64>,
     slipping: bool,
     distance_m: f64,
     counters: OdometryCounters,
@@ -150,6 +155,10 @@ fn device_attitude(o: &[f64; 4]) -> Option<UnitQuaternion<f64>> {
     let n = libm::sqrt(q.coords.dot(&q.coords));
     ((0.9..=1.1).contains(&n)).then(|| UnitQuaternion::new_normalize(q))
 }
+
+/// Longest a pose is carried on past its last measurement (two IMU periods
+/// at 100 Hz): beyond that a sensor is late, and guessing does more harm.
+pub const MAX_EXTRAPOLATION_NS: u64 = 20_000_000;
 
 /// Largest |pitch| at which roll and yaw are still well apart, rad.
 const MAX_CORRECTED_PITCH: f64 = 1.4;
@@ -166,6 +175,8 @@ impl Odometry {
             attitude_at_wheels: UnitQuaternion::identity(),
             gyro_yaw: 0.0,
             gyro_samples: 0,
+            last_gyro: Vector3::zeros(),
+            last_velocity: Vector3::zeros(),
             slipping: false,
             distance_m: 0.0,
             counters: OdometryCounters::default(),
@@ -180,6 +191,34 @@ impl Odometry {
     /// position zero at start).
     pub fn pose(&self) -> &Isometry3<f64> {
         &self.pose
+    }
+
+    /// The pose carried on to `time_ns` from the last IMU sample (by its rate
+    /// of turn) and the last wheel step (by its velocity); not carried from a
+    /// measurement older than `MAX_EXTRAPOLATION_NS` (a late sensor). The MTi reports at 100 Hz and the drives
+    /// at the SYNC rate, so `pose()` is on average half a period (plus the
+    /// transmission) old when a frame reads it: a rover on leg-wheels rocks
+    /// by tenths of a degree in those 5 ms, and a pose history stamped with
+    /// the frame time but holding that older attitude deskews scans and
+    /// registers keyframes against a lagging motion.
+    pub fn pose_at(&self, time_ns: u64) -> Isometry3<f64> {
+        let ahead = |since: u64| {
+            let dt = time_ns.saturating_sub(since);
+            if dt > MAX_EXTRAPOLATION_NS {
+                0.0
+            } else {
+                dt as f64 * 1e-9
+            }
+        };
+        let mut pose = self.pose;
+        if let Some(t) = self.last_imu_ns {
+            let q = pose.rotation * rot::exp(&(self.last_gyro * ahead(t)));
+            pose.rotation = UnitQuaternion::new_normalize(q.into_inner());
+        }
+        if self.last_counts.is_some() {
+            pose.translation.vector += self.last_velocity * ahead(self.last_wheel_ns);
+        }
+        pose
     }
 
     /// Distance travelled since start (sum of step magnitudes), m.
@@ -206,6 +245,7 @@ impl Odometry {
             self.counters.imu_rejected += 1;
         }
         let last = self.last_imu_ns.replace(s.time_ns);
+        self.last_gyro = if gyro_ok { gyro } else { Vector3::zeros() };
         // How much of the device's roll and pitch to take: all of it at
         // start and after a gap, none for a sample without a time step.
         let mut alpha = 1.0;
@@ -264,6 +304,7 @@ impl Odometry {
         let gyro_yaw = (self.gyro_samples > 0).then_some(self.gyro_yaw);
         self.gyro_yaw = 0.0;
         self.gyro_samples = 0;
+        self.last_velocity = Vector3::zeros();
         let Some(last) = last else {
             return 0.0;
         };
@@ -291,6 +332,9 @@ impl Odometry {
         let mid = rot::slerp(&attitude_before, &self.pose.rotation, 0.5);
         let step = mid * Vector3::new(v, 0.0, 0.0);
         self.pose.translation = Translation3::from(self.pose.translation.vector + step);
+        if dt > 0.0 {
+            self.last_velocity = step / dt;
+        }
         self.distance_m += v.abs();
         v
     }

@@ -360,3 +360,44 @@ fn o8_the_same_inputs_give_bit_identical_poses() {
     };
     assert_eq!(run(), run());
 }
+
+#[test]
+fn o10_the_pose_is_carried_on_to_the_frame_time_by_the_last_rates() {
+    // Rolling at 0.2 rad/s, the last sample at 100 ms; driving 0.5 m/s, the
+    // last wheel step at 96 ms.
+    let mut o = Odometry::new(params());
+    for k in 0..=10u64 {
+        o.imu(&ImuInput {
+            time_ns: k * 10 * MS,
+            gyro: [0.2, 0.0, 0.0],
+            orientation: wxyz(&rot::from_rpy(0.002 * k as f64, 0.0, 0.0)),
+        });
+    }
+    let per_m = 1000.0 / (2.0 * PI * 0.2);
+    o.wheels(86 * MS, [0; 4]);
+    o.wheels(96 * MS, [(0.005 * per_m).round() as i32; 4]);
+    let (x0, r0) = (o.pose().translation.x, rot::to_rpy(&o.pose().rotation).0);
+    // 6 ms later: 1.2 mrad more roll, and 10 ms of travel after the wheels.
+    let p = o.pose_at(106 * MS);
+    let (r, _, _) = rot::to_rpy(&p.rotation);
+    assert!((r - r0 - 0.2 * 0.006).abs() < 1e-9, "{}", r - r0);
+    let step = (0.005 * per_m).round() / per_m;
+    assert!(
+        (p.translation.x - x0 - step).abs() < 1e-9,
+        "{}",
+        p.translation.x - x0
+    );
+    // The state itself is not moved, and a time before the samples adds
+    // nothing.
+    assert_eq!(o.pose_at(50 * MS), *o.pose());
+    // Samples older than the limit are a late sensor: no guess.
+    assert_eq!(o.pose_at(100 * MS + MAX_EXTRAPOLATION_NS + MS), *o.pose());
+    // A rejected rate of turn is not carried on.
+    o.imu(&ImuInput {
+        time_ns: 110 * MS,
+        gyro: [f64::NAN, 0.0, 0.0],
+        orientation: wxyz(&rot::from_rpy(0.022, 0.0, 0.0)),
+    });
+    let q = o.pose().rotation;
+    assert!(o.pose_at(115 * MS).rotation.angle_to(&q) < 1e-12);
+}

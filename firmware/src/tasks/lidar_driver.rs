@@ -70,6 +70,7 @@ impl Task<Bus> for LidarDriver {
                     Cloud {
                         index: f.index,
                         start_us: f.start_us,
+                        end_us: f.end_us,
                         points,
                     },
                 );

@@ -1,6 +1,7 @@
 //! Wheel and IMU odometry at the frame rate: publishes the pose every frame
-//! and keeps the recent poses, stamped with the frame time, in the bus's
-//! pose history for deskewing.
+//! and keeps the recent poses, stamped with the frame time (the pose carried
+//! on to it from the last IMU and wheel samples), in the bus's pose history
+//! for deskewing.
 
 use speleo_odometry::{ImuInput, Odometry, OdometryParams};
 use speleo_scheduler::{Context, Task};
@@ -66,7 +67,9 @@ impl Task<Bus> for OdometryTask {
                 self.last_step_ns = newest;
             }
         }
-        let pose = *odo.pose();
+        // Carried on from the last samples to the frame's time, which the
+        // pose is stamped with.
+        let pose = odo.pose_at(cx.time_ns);
         let q = pose.rotation.into_inner();
         bus.odom.publish(
             cx.time_ns,

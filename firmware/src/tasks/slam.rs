@@ -139,9 +139,12 @@ impl SlamTask {
             return;
         }
         let cloud = &c.value;
-        let last = cloud.points.last().map_or(0.0, |p| p.time);
-        // The cloud is stamped when its last packet arrived.
-        let t0 = c.stamp_ns.saturating_sub((last as f64 * 1e9) as u64);
+        // The cloud is stamped when the packet that completed it arrived,
+        // which the sensor's clock puts `end_us - start_us` after the first
+        // firing (the network's latency, a fraction of a millisecond, is
+        // not known here).
+        let span_ns = ((cloud.end_us - cloud.start_us).max(0.0) * 1e3) as u64;
+        let t0 = c.stamp_ns.saturating_sub(span_ns);
         let Some(odom0) = bus.odom_history.at(t0) else {
             self.scans_without_odometry += 1;
             return;

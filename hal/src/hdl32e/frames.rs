@@ -48,6 +48,11 @@ pub struct Frame<'a> {
     pub index: u64,
     /// Time of the frame's first firing, microseconds past the hour.
     pub start_us: f64,
+    /// When the packet that completed the frame had fired its last block,
+    /// same clock: the frame is known from then on, so a receiver can tell
+    /// the first firing's time in its own clock from the delivering
+    /// packet's arrival, less only the network's latency.
+    pub end_us: f64,
     pub points: &'a [Point],
 }
 
@@ -59,6 +64,8 @@ pub struct FrameAssembler {
     last_rel: Option<u32>,
     last_ts: Option<u32>,
     start_us: Option<f64>,
+    /// End (`Frame::end_us`) of the last packet taken in.
+    end_us: f64,
     /// Hours added to timestamps after wraps, so time keeps increasing.
     hours: i64,
     /// Out-of-order packets in a row.
@@ -82,6 +89,7 @@ impl FrameAssembler {
             last_rel: None,
             last_ts: None,
             start_us: None,
+            end_us: 0.0,
             hours: 0,
             behind: 0,
             index: 0,
@@ -155,6 +163,7 @@ impl FrameAssembler {
         let decoder = &self.decoder;
         let points = &mut self.points;
         let mut start = self.start_us.unwrap_or(packet_us);
+        let end_us = packet_us + PACKET_PERIOD_US;
         decoder.decode_with(p, |mut pt| {
             if pt.block as usize >= split && !emitted {
                 emitted = true;
@@ -164,6 +173,7 @@ impl FrameAssembler {
                 on_frame(&Frame {
                     index: self.index - 1,
                     start_us: start,
+                    end_us,
                     points,
                 });
                 points.clear();
@@ -184,12 +194,14 @@ impl FrameAssembler {
             on_frame(&Frame {
                 index: self.index - 1,
                 start_us: start,
+                end_us,
                 points: &self.points,
             });
             self.points.clear();
             start = block_us(split as u8);
         }
         self.start_us = Some(start);
+        self.end_us = end_us;
         self.counters.dropped_points += lost;
     }
 
@@ -203,6 +215,7 @@ impl FrameAssembler {
         on_frame(&Frame {
             index: self.index,
             start_us: self.start_us.unwrap_or(0.0),
+            end_us: self.end_us,
             points: &self.points,
         });
         self.index += 1;
@@ -252,6 +265,25 @@ mod tests {
         }
         assert_eq!(sizes, vec![1800, 1800]);
         assert_eq!(a.counters.lost_packets + a.counters.out_of_order, 0);
+    }
+
+    #[test]
+    fn a_frame_ends_when_the_packet_completing_it_has_fired() {
+        // The first revolution's 1800 blocks fill packets 0..150; packet 150
+        // holds the first blocks of the next and completes it.
+        let mut a = assembler();
+        let mut spans = Vec::new();
+        let ps = packets(301, 0, 1_000);
+        for p in &ps {
+            a.push(p, |f| spans.push((f.start_us, f.end_us)));
+        }
+        let t = |i: usize| ps[i].timestamp_us as f64;
+        assert_eq!(spans.len(), 2);
+        assert_eq!(spans[0], (t(0), t(150) + PACKET_PERIOD_US));
+        assert_eq!(spans[1], (t(150), t(300) + PACKET_PERIOD_US));
+        // A flushed frame ends with the last packet taken in.
+        a.flush(|f| spans.push((f.start_us, f.end_us)));
+        assert_eq!(spans[2], (t(300), t(300) + PACKET_PERIOD_US));
     }
 
     #[test]
