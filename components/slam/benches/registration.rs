@@ -5,7 +5,10 @@
 //! by 5 deg yaw, 1 deg roll and (0.5, 0.2, 0.05) m) and on a synthetic
 //! room. The figures to compare with PyPI small_gicp's `align(target,
 //! source, downsampling_resolution=0.25, num_threads=1)` on the same
-//! clouds are `real_pair*/prepare_both_and_align`.
+//! clouds are `real_pair*/prepare_both_and_align`; `small_gicp_reference.py`
+//! beside this file times small_gicp on the real pair (medians on the
+//! 2-core machine, same session: 34.4 ms here against its 52.3 ms, one
+//! cloud prepared in 13.9 ms against its 20.1 ms).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
