@@ -250,7 +250,11 @@ fn every_fault_is_found_stops_the_rover_and_is_recovered_from() {
         let (v, p1) = at(&track, still + S / 2);
         let crept = (p1[0] - p0[0]).hypot(p1[1] - p0[1]);
         assert!(crept < 0.01, "{}: {crept} m from {still} ns", o.spec);
-        assert!(v.abs() < STOPPED, "{}: {v} m/s at {still} ns + 0.5 s", o.spec);
+        assert!(
+            v.abs() < STOPPED,
+            "{}: {v} m/s at {still} ns + 0.5 s",
+            o.spec
+        );
         // Driving on once recovered.
         let going = spec.end_ns() + (back as u64 + 500) * 1_000_000;
         let (_, p0) = at(&track, going);
