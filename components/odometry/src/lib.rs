@@ -136,9 +136,9 @@ pub struct Odometry {
     /// number of samples it holds.
     gyro_yaw: f64,
     gyro_samples: u32,
-    /// The last accepted rate of turn (body, rad/s) and the velocity of the
-    /// last wheel step (odometry frame, m/s): `pose_at` carries the pose on
-    /// with them.
+    /// The last sample's rate of turn (body, rad/s; zero if rejected) and
+    /// the velocity of the last wheel step (odometry frame, m/s): `pose_at`
+    /// carries the pose on with them.
     last_gyro: Vector3<f64>,
     last_velocity: Vector3<f64>,
     slipping: bool,
@@ -194,13 +194,15 @@ impl Odometry {
     }
 
     /// The pose carried on to `time_ns` from the last IMU sample (by its rate
-    /// of turn) and the last wheel step (by its velocity); not carried from a
-    /// measurement older than `MAX_EXTRAPOLATION_NS` (a late sensor). The MTi reports at 100 Hz and the drives
-    /// at the SYNC rate, so `pose()` is on average half a period (plus the
-    /// transmission) old when a frame reads it: a rover on leg-wheels rocks
-    /// by tenths of a degree in those 5 ms, and a pose history stamped with
-    /// the frame time but holding that older attitude deskews scans and
-    /// registers keyframes against a lagging motion.
+    /// of turn) and the last wheel step (by its velocity); not carried from
+    /// a measurement older than `MAX_EXTRAPOLATION_NS` (a late sensor).
+    ///
+    /// Why: the MTi reports at 100 Hz and the drives at the SYNC rate, so
+    /// `pose()` is on average half a period (plus the transmission) old when
+    /// a frame reads it. A rover on leg-wheels rocks by tenths of a degree
+    /// in those 5 ms, and a pose history stamped with the frame time but
+    /// holding that older attitude deskews scans and registers keyframes
+    /// against a lagging motion.
     pub fn pose_at(&self, time_ns: u64) -> Isometry3<f64> {
         let ahead = |since: u64| {
             let dt = time_ns.saturating_sub(since);
