@@ -49,6 +49,8 @@ pub struct ExplorationFigures {
     pub retraces: u64,
     /// Returns home that found something to explore on the way.
     pub resumes: u64,
+    /// Stuck stops the rover backed out of; each place became an obstacle.
+    pub backed_out: u64,
     /// Candidate scans, and those that found nothing.
     pub scans: u64,
     pub scans_empty: u64,
@@ -81,6 +83,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         plans_completed: c.plans_completed,
         retraces: e.counters.retraces,
         resumes: e.counters.resumes,
+        backed_out: e.counters.backed_out,
         climbed_m: e.climbed_m,
         descended_m: e.descended_m,
         scans: e.counters.scans,

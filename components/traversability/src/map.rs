@@ -227,6 +227,36 @@ impl TravMap {
             .map(|(i, _)| i)
     }
 
+    /// Mark every drivable node within `radius_m` of `at` (in x and y, and
+    /// half a metre in height) an obstacle, except those within `spare_m`
+    /// of `keep` (where the rover stands: its start must stay drivable).
+    /// What the map cannot see is known this way: a rock the rover sat on,
+    /// wheels spinning, is not driven over again. Returns the nodes marked.
+    pub fn forbid(&mut self, at: [f64; 3], radius_m: f64, keep: [f64; 2], spare_m: f64) -> usize {
+        let res = self.resolution;
+        let r = (radius_m / res).ceil() as i32;
+        let (cx, cy) = ((at[0] / res).floor() as i32, (at[1] / res).floor() as i32);
+        let mut marked = 0;
+        for iy in cy - r..=cy + r {
+            for ix in cx - r..=cx + r {
+                let mut i = self.by_cell.get(&(ix, iy)).copied().unwrap_or(NONE);
+                while i != NONE {
+                    let p = self.position(&self.nodes[i as usize]);
+                    let near = (p[0] - at[0]).hypot(p[1] - at[1]) <= radius_m
+                        && (p[2] - at[2]).abs() < 0.5;
+                    let spared = (p[0] - keep[0]).hypot(p[1] - keep[1]) <= spare_m;
+                    let n = &mut self.nodes[i as usize];
+                    if near && !spared && n.class.is_drivable() {
+                        n.class = TravClass::Obstacle;
+                        marked += 1;
+                    }
+                    i = self.next_in_cell[i as usize];
+                }
+            }
+        }
+        marked
+    }
+
     /// Grow the graph over `mls` from the ground patch under `start`
     /// (x, y and the ground height, within a step). Replaces the previous
     /// graph; allocates nothing while the node limit holds.

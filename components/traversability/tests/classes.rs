@@ -302,3 +302,21 @@ fn a_ramp_slab_over_floor_seen_beneath_it_is_still_climbed() {
         "the ramp is not reached: {up:?}"
     );
 }
+
+#[test]
+fn a_forbidden_place_becomes_obstacle_except_where_the_rover_stands() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 4.0), (0.0, 4.0), |_, _| 0.0);
+    let mut t = build(&m, [1.0, 2.0, 0.0]);
+    // A rock the map cannot see at (2, 2); the rover stands at (1.6, 2).
+    let marked = t.forbid([2.0, 2.0, 0.0], 0.5, [1.6, 2.0], 0.2);
+    assert_eq!(class_at(&t, 2.0, 2.0, 0.0), Some(TravClass::Obstacle));
+    assert_eq!(class_at(&t, 2.4, 2.0, 0.0), Some(TravClass::Obstacle));
+    // Beyond the radius, and where the rover stands, still drivable.
+    assert_eq!(class_at(&t, 2.6, 2.0, 0.0), Some(TravClass::Traversable));
+    assert_eq!(class_at(&t, 1.65, 2.0, 0.0), Some(TravClass::Traversable));
+    // Roughly the disc less the spared one (0.1 m cells).
+    assert!((55..=80).contains(&marked), "{marked}");
+    // Another level is not touched.
+    assert_eq!(t.forbid([2.0, 2.0, 1.0], 0.5, [0.0, 0.0], 0.0), 0);
+}

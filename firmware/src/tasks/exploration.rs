@@ -4,6 +4,7 @@
 //! the control task to drive. When nothing is left, or time is up, the
 //! goals come from the rover's track home instead.
 
+use speleo_control::StopReason;
 use speleo_exploration::{CandidateParams, CandidateScan, Explorer, ExplorerParams, Mode};
 use speleo_simulator::{rmse_at_equal_times, InternalSim, Outcome, PREDICTION_POINTS};
 use speleo_slam::lie::Pose;
@@ -28,6 +29,9 @@ pub struct ExplorationCounters {
     /// Returns home that found something explorable on the way and went
     /// back to exploring.
     pub resumes: u64,
+    /// Stuck stops after which the rover backed out (straight, backward
+    /// or forward) and the place became an obstacle for the planner.
+    pub backed_out: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground).
     pub validations: u64,
@@ -40,6 +44,18 @@ pub struct ExplorationCounters {
 
 /// Results kept for the report's medians.
 const HISTORY: usize = 8192;
+
+/// Places the rover was stuck at, kept as obstacles (older ones are
+/// forgotten first).
+pub const MAX_NO_GO: usize = 32;
+
+/// Around a place the rover was stuck at, no path may pass, m: the
+/// chassis' half-diagonal, so that what held it (under the body, or under
+/// a wheel) is not driven over again.
+pub const NO_GO_RADIUS_M: f64 = 0.6;
+
+/// After a stuck stop the rover backs this far, m.
+const BACK_OUT_M: f64 = 1.0;
 
 /// The executed track of a validated plan, sampled like the prediction.
 struct Comparison {
@@ -82,6 +98,12 @@ pub struct Exploration {
     /// Highest and lowest the rover has been over home (SLAM), m.
     pub climbed_m: f64,
     pub descended_m: f64,
+    /// Where the rover was stuck: obstacles in every graph from then on.
+    pub no_go: heapless::Deque<[f64; 3], MAX_NO_GO>,
+    /// The next retrace backs out of a place the rover was stuck at.
+    back_out: bool,
+    /// Back-outs in a row (each stuck too): they alternate direction.
+    escape_attempts: u32,
 }
 
 impl Exploration {
@@ -118,6 +140,9 @@ impl Exploration {
             stranded: false,
             climbed_m: 0.0,
             descended_m: 0.0,
+            no_go: heapless::Deque::new(),
+            back_out: false,
+            escape_attempts: 0,
         }
     }
 
@@ -144,6 +169,10 @@ impl Exploration {
     /// watches every metre of it.
     pub fn retrace(&mut self, bus: &mut Bus, now: u64, query: u64, ahead_m: f64) {
         self.stranded = false;
+        if core::mem::take(&mut self.back_out) {
+            self.back_out(bus, now, query);
+            return;
+        }
         self.counters.retraces += 1;
         let Some(pose) = bus.slam.get().map(|p| p.value.position) else {
             return;
@@ -167,7 +196,12 @@ impl Exploration {
             if n == points.len() || left <= 0.0 {
                 break;
             }
-            left -= (p[0] - at[0]).hypot(p[1] - at[1]);
+            let d = (p[0] - at[0]).hypot(p[1] - at[1]);
+            if d < 0.05 {
+                // Where the rover stands: no direction to it.
+                continue;
+            }
+            left -= d;
             points[n] = *p;
             n += 1;
             at = *p;
@@ -187,6 +221,43 @@ impl Exploration {
         self.executing = query;
         self.counters.plans_executed += 1;
         bus.exploration.goal = Some(points[n - 1]);
+        bus.plan.publish(now, msg);
+    }
+
+    /// Get off what held the rover: straight along its body axis, without
+    /// turning (a rover sitting on a rock pivots on it when it turns),
+    /// backward first and, when that fails too, forward, and so on.
+    fn back_out(&mut self, bus: &mut Bus, now: u64, query: u64) {
+        let Some(p) = bus.slam.get().map(|p| p.value) else {
+            return;
+        };
+        self.counters.backed_out += 1;
+        let yaw = crate::tasks::control::yaw_of(p.orientation);
+        let sign = if self.escape_attempts % 2 == 1 {
+            -1.0
+        } else {
+            1.0
+        };
+        self.escape_attempts += 1;
+        let mut msg = PlanMsg {
+            query,
+            execute: true,
+            ..PlanMsg::default()
+        };
+        const STEPS: usize = 5;
+        for k in 0..=STEPS {
+            let d = -sign * BACK_OUT_M * k as f64 / STEPS as f64;
+            let _ = msg.poses.push([
+                (p.position[0] + d * yaw.cos()) as f32,
+                (p.position[1] + d * yaw.sin()) as f32,
+                p.position[2] as f32,
+                yaw as f32,
+            ]);
+        }
+        self.executing = query;
+        self.counters.plans_executed += 1;
+        // No goal: a back-out stopped on its way rejects no candidate.
+        bus.exploration.goal = None;
         bus.plan.publish(now, msg);
     }
 
@@ -322,11 +393,31 @@ impl Exploration {
         if self.idle_since.is_none() {
             // The traverse is over: a goal the rover was stopped on the way
             // to is not tried again.
-            let stopped = bus.command.get().is_some_and(|c| c.value.stop != 0);
+            let stop = bus.command.get().map_or(0, |c| c.value.stop);
             if let (true, Mode::Exploring, Some(g)) =
-                (stopped, self.explorer.mode(), bus.exploration.goal)
+                (stop != 0, self.explorer.mode(), bus.exploration.goal)
             {
                 self.explorer.reject([g[0], g[1]]);
+            }
+            // Stuck (on a rock the map took for ground, most often): the
+            // place becomes an obstacle, and the rover backs out first.
+            if stop == StopReason::Stuck as u8 {
+                if let Some(p) = bus.slam.get().map(|p| p.value.position) {
+                    let known = self
+                        .no_go
+                        .iter()
+                        .any(|q| (q[0] - p[0]).hypot(q[1] - p[1]) < NO_GO_RADIUS_M / 2.0);
+                    if !known {
+                        if self.no_go.is_full() {
+                            self.no_go.pop_front();
+                        }
+                        let _ = self.no_go.push_back(p);
+                    }
+                    self.back_out = true;
+                    self.stranded = true;
+                }
+            } else if stop == 0 {
+                self.escape_attempts = 0;
             }
         }
         let since = *self.idle_since.get_or_insert(now);

@@ -30,7 +30,7 @@ use speleo_exploration::{Mode, ReturnReason};
 use crate::bus::{Bus, PlanMsg};
 use crate::config::PlannerConfig;
 use crate::tasks::control::yaw_of;
-use crate::tasks::exploration::Exploration;
+use crate::tasks::exploration::{Exploration, NO_GO_RADIUS_M};
 
 /// Results kept for the report's medians (a query every few seconds: days
 /// of mission).
@@ -40,6 +40,10 @@ const START_CANDIDATES: usize = 8;
 /// How far from the rover the start patch may be (the LiDAR does not see
 /// the ground right under the rover until it has moved), m.
 const START_REACH_M: f64 = 1.5;
+
+/// Nodes this near the rover stay drivable inside a no-go place (the
+/// query must start from somewhere), m.
+const NO_GO_SPARE_M: f64 = 0.3;
 /// How far from the point ahead on the route the goal node may be, m.
 const GOAL_REACH_M: f64 = 1.0;
 /// Where the map does not reach `goal_ahead_m` yet, the goal comes back
@@ -787,6 +791,16 @@ impl PlannerTask {
                     .trav_mut()
                     .grow(mls, units as usize * GROW_PER_UNIT)
                 {
+                    if let Some(ex) = &self.explore {
+                        // Where the rover was stuck, no path goes (but the
+                        // rover may start from where it stands).
+                        let keep = [self.query.rover[0], self.query.rover[1]];
+                        for p in ex.no_go.iter() {
+                            self.lat
+                                .trav_mut()
+                                .forbid(*p, NO_GO_RADIUS_M, keep, NO_GO_SPARE_M);
+                        }
+                    }
                     let trav = self.lat.trav();
                     let s = trav.stats();
                     self.counters.nodes_max = self.counters.nodes_max.max(s.nodes as u64);
@@ -1173,6 +1187,117 @@ mod tests {
         for p in &plan.poses {
             assert!(p[0] < 9.6, "{p:?} climbs the ledge");
         }
+    }
+
+    /// The far end of the floor as the target, and perhaps a place the
+    /// rover was stuck at on the straight way there: the plan.
+    fn plan_toward_the_far_end(no_go: Option<[f64; 3]>) -> PlanMsg {
+        let e = crate::config::ExplorationConfig {
+            weight_target: 5.0,
+            ..Default::default()
+        };
+        let mut ex = Exploration::new(
+            e.explorer_params(),
+            e.candidate_params(),
+            Some([12.0, 2.0]),
+            0.0,
+        );
+        if let Some(p) = no_go {
+            let _ = ex.no_go.push_back(p);
+        }
+        let mut t = task(&[]).with_exploration(ex);
+        let mut bus = bus_on_a_floor();
+        run_query(&mut t, &mut bus);
+        published(&bus)
+    }
+
+    fn nearest_m(plan: &PlanMsg, at: [f64; 2]) -> f64 {
+        plan.poses
+            .iter()
+            .map(|p| (p[0] as f64 - at[0]).hypot(p[1] as f64 - at[1]))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn a_place_the_rover_was_stuck_at_is_kept_out_of_its_plans() {
+        // A pose of the plan made without it, before the boulder.
+        let free = plan_toward_the_far_end(None);
+        let p = free
+            .poses
+            .iter()
+            .find(|p| p[0] > 3.0)
+            .copied()
+            .unwrap_or_else(|| panic!("{free:?}"));
+        let at = [p[0] as f64, p[1] as f64];
+        let wary = plan_toward_the_far_end(Some([at[0], at[1], 0.0]));
+        assert!(wary.execute, "{wary:?}");
+        assert!(nearest_m(&wary, at) > NO_GO_RADIUS_M, "{wary:?}");
+    }
+
+    #[test]
+    fn a_stuck_rover_backs_out_the_way_it_came_and_remembers_the_place() {
+        use crate::bus::WheelCommand;
+        use speleo_control::StopReason;
+        let e = crate::config::ExplorationConfig::default();
+        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);
+        let mut bus = bus_on_a_floor();
+        // Driven from x = 1 to x = 5 along y = 2, then stuck.
+        for k in 0..=40 {
+            let x = 1.0 + 0.1 * k as f64;
+            bus.slam.publish(
+                k * 100_000_000,
+                SlamPose {
+                    position: [x, 2.0, 0.17],
+                    orientation: [1.0, 0.0, 0.0, 0.0],
+                    keyframes: 1,
+                },
+            );
+            ex.observe(&mut bus, k * 100_000_000);
+        }
+        bus.command.publish(
+            4_100_000_000,
+            WheelCommand {
+                done: true,
+                stop: StopReason::Stuck as u8,
+                ..Default::default()
+            },
+        );
+        assert!(ex.ready(&bus, 4_100_000_000));
+        assert_eq!(ex.no_go.len(), 1);
+        let stuck_at = ex.no_go.front().copied().unwrap_or_default();
+        assert!((stuck_at[0] - 5.0).abs() < 1e-9, "{stuck_at:?}");
+        assert!(ex.retrace_due());
+        ex.retrace(&mut bus, 4_200_000_000, 9, 8.0);
+        let plan = published(&bus);
+        assert!(plan.execute && plan.query == 9, "{plan:?}");
+        let last = plan.poses[plan.poses.len() - 1];
+        // A metre straight back (not the 8 m of a retrace), facing ahead
+        // still: driven in reverse, without turning.
+        assert!(
+            (last[0] - 4.0).abs() < 1e-3 && (last[1] - 2.0).abs() < 1e-3,
+            "{plan:?}"
+        );
+        assert!(plan.poses.iter().all(|p| p[3].abs() < 1e-6), "{plan:?}");
+        assert_eq!(ex.counters.backed_out, 1);
+        // Stuck again on the way back: forward this time, and the place is
+        // known already.
+        bus.command.publish(
+            4_300_000_000,
+            WheelCommand {
+                done: true,
+                plan: 9,
+                stop: StopReason::Stuck as u8,
+                ..Default::default()
+            },
+        );
+        assert!(ex.ready(&bus, 4_300_000_000));
+        assert_eq!(ex.no_go.len(), 1);
+        ex.retrace(&mut bus, 4_400_000_000, 10, 8.0);
+        let last = *published(&bus)
+            .poses
+            .last()
+            .unwrap_or_else(|| panic!("no poses"));
+        assert!((last[0] - 6.0).abs() < 1e-3, "{last:?}");
     }
 
     #[test]
