@@ -46,6 +46,14 @@ pub struct SurfaceParams {
     /// (1 - d / R)`, `d` the least distance from its path to something in
     /// the body's band and `R` the body's circumscribed radius (0: off).
     pub clearance_weight: f64,
+    /// Turning on a slope: a primitive's turning time is multiplied by `1 +
+    /// weight x (slope - free)` where the steepest node it passes slopes
+    /// more than `free` degrees. A skid-steer rover turning on a ramp
+    /// scrubs its wheels sideways against gravity and slides: in the
+    /// simulated garage it dug in turning on a 15 degree ramp, where it
+    /// climbed the same ramp straight without trouble.
+    pub turn_slope_free_deg: f64,
+    pub turn_slope_weight_per_deg: f64,
 }
 
 impl Default for SurfaceParams {
@@ -57,6 +65,8 @@ impl Default for SurfaceParams {
             body_length_m: 0.9,
             body_width_m: 0.7,
             clearance_weight: 0.0,
+            turn_slope_free_deg: 8.0,
+            turn_slope_weight_per_deg: 0.5,
         }
     }
 }
@@ -544,6 +554,7 @@ impl SurfaceLattice {
         let mut nearest_d2 = self.blocked_d2[n as usize];
         let mut length_3d = 0.0;
         let mut length_xy = 0.0;
+        let mut steepest_deg = nodes[n as usize].slope_deg;
         let res = self.trav.resolution();
         for &k in &a.steps {
             let next = nodes[cur as usize].neighbours[k as usize];
@@ -560,6 +571,7 @@ impl SurfaceLattice {
                 res * std::f64::consts::SQRT_2
             };
             let dz = (b.ground_z - nodes[cur as usize].ground_z) as f64;
+            steepest_deg = steepest_deg.max(b.slope_deg);
             length_xy += xy;
             length_3d += (xy * xy + dz * dz).sqrt();
             cur = next;
@@ -600,7 +612,9 @@ impl SurfaceLattice {
             self.p.forward_speed_mps
         };
         let linear = a.length_m * slope_factor / speed;
-        let turn = a.turn_rad / self.p.turn_speed_rad_s;
+        let over = (steepest_deg as f64 - self.p.turn_slope_free_deg).max(0.0);
+        let turn =
+            a.turn_rad / self.p.turn_speed_rad_s * (1.0 + self.p.turn_slope_weight_per_deg * over);
         let crowding = if nearest_d2 == u16::MAX || self.p.clearance_weight <= 0.0 {
             0.0
         } else {

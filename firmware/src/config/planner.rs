@@ -193,6 +193,7 @@ impl PlannerConfig {
             body_length_m: self.body_length_m,
             body_width_m: self.body_width_m,
             clearance_weight: self.clearance_weight,
+            ..speleo_planner::surface::SurfaceParams::default()
         }
     }
 
