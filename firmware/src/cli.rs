@@ -333,12 +333,17 @@ pub struct SimArgs {
     /// Seed of every random source of the simulation [default: from config, 1].
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
-    /// Simulated seconds to run [default: from config, 60].
+    /// Simulated seconds to run at most [default: from config, 3600]; an
+    /// exploration ends earlier, once the rover is home.
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,
     /// Configuration file; values not given keep their defaults.
     #[arg(long, value_name = "FILE.toml")]
     pub config: Option<PathBuf>,
+    /// Drive the world's scripted route (out and back) instead of
+    /// exploring (`exploration.enabled = false`).
+    #[arg(long)]
+    pub route: bool,
     /// Write the SLAM keyframe poses (world frame, TUM format) here, and
     /// the true poses at the same times beside it as NAME.truth.EXT.
     #[arg(long, value_name = "OUT.tum")]

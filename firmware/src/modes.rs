@@ -311,6 +311,9 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     if let Some(w) = &a.world {
         cfg.sim.world = w.clone();
     }
+    if a.route {
+        cfg.exploration.enabled = false;
+    }
     cfg.sim.faults.extend(a.faults.iter().cloned());
     let result = simulate(&mut cfg, &a.out, progress)?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;

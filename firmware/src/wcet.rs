@@ -39,7 +39,9 @@ pub struct Scenario {
     replay: bool,
 }
 
-fn route(_: &mut Config) {}
+fn route(c: &mut Config) {
+    c.exploration.enabled = false;
+}
 
 fn explore(c: &mut Config) {
     c.exploration.enabled = true;

@@ -254,6 +254,7 @@ fn help_explains_every_option() {
         "--record",
         "--report",
         "--config",
+        "--route",
     ] {
         assert!(h.contains(opt), "{opt} missing from:\n{h}");
     }

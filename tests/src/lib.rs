@@ -7,7 +7,8 @@ use std::process::ExitCode;
 use speleo_firmware::cli::{Outputs, ReplayArgs, SimArgs};
 use speleo_firmware::modes;
 
-/// Run `speleo sim` in this process.
+/// Run `speleo sim --route` in this process: the helpers drive the
+/// world's route (a short, known path) rather than exploring.
 pub fn sim(seed: u64, duration_s: f64, record: Option<&Path>, report: Option<&Path>) -> ExitCode {
     sim_with_config(seed, duration_s, None, record, report)
 }
@@ -38,6 +39,7 @@ pub fn sim_with_trajectory(
             seed: Some(seed),
             duration: Some(duration_s),
             config: config.map(Path::to_path_buf),
+            route: true,
             trajectory: trajectory.map(Path::to_path_buf),
             plot: None,
             faults: Vec::new(),

@@ -21,6 +21,7 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
             seed: Some(1),
             duration: Some(900.0),
             config: Some(config),
+            route: false,
             trajectory: None,
             plot: Some(plot.clone()),
             faults: Vec::new(),

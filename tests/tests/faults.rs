@@ -101,7 +101,10 @@ fn fly(fault: Fault) -> (mission::MissionResult, TruthProbe) {
         fault,
         done: false,
     };
-    (run_mission(&Config::default(), &mut hw, &truth), truth)
+    // The route: a known path to drive when the fault strikes.
+    let mut cfg = Config::default();
+    cfg.exploration.enabled = false;
+    (run_mission(&cfg, &mut hw, &truth), truth)
 }
 
 /// Slower than this is standing still (the cruise speed is 0.4 m/s).
@@ -145,7 +148,10 @@ fn a_drive_fault_stops_the_rover() {
 fn commands_that_go_stale_hold_the_wheels() {
     // The path follower runs only every 300 ms: longer than the 100 ms
     // freshness limit of wheel commands, so the wheels are held between runs.
-    let cfg = Config::from_toml("[tasks.control]\ndivisor = 30\noffset = 1\n").expect("config");
+    let cfg = Config::from_toml(
+        "[exploration]\nenabled = false\n[tasks.control]\ndivisor = 30\noffset = 1\n",
+    )
+    .expect("config");
     let mut sim = SimHardware::new(&SimParams::default()).expect("sim");
     let truth = sim.truth_probe();
     let r = run_mission(&cfg, &mut sim, &truth);
@@ -162,7 +168,9 @@ fn commands_that_go_stale_hold_the_wheels() {
 
 /// Every kind of fault but the LiDAR's and the overrun storm (tested
 /// below), one after another, each for 2 s (the jump: 1 s), 6 s apart.
-const SEQUENCE: &str = r#"[sim]
+const SEQUENCE: &str = r#"[exploration]
+enabled = false
+[sim]
 lidar = false
 faults = ["imu-garbage@4+2", "imu-dropout@10+2", "stuck-wheel@16+2:3", "wheel-slip@22+2:2",
           "drive-fault@28+2:2", "can-bus-off@34+2", "clock-jump@40+1"]

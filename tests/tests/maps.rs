@@ -85,6 +85,7 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
             seed: Some(SEED),
             duration: Some(SECONDS),
             config: Some(config.clone()),
+            route: true,
             trajectory: Some(trajectory.clone()),
             plot: None,
             faults: Vec::new(),

@@ -8,7 +8,8 @@ use super::{range, ConfigError};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ExplorationConfig {
-    /// Explore and come home (needs the planner); off: follow the route.
+    /// Explore and come home (needs the planner), the default; off:
+    /// follow the route (`speleo sim --route`).
     pub enabled: bool,
     /// Exploring ends after this much mission time, s; the return follows.
     pub time_limit_s: f64,
@@ -36,7 +37,7 @@ impl Default for ExplorationConfig {
         let e = speleo_exploration::ExplorerParams::default();
         let c = speleo_exploration::CandidateParams::default();
         ExplorationConfig {
-            enabled: false,
+            enabled: true,
             time_limit_s: e.time_limit_s,
             coverage_radius_m: e.coverage_radius_m,
             empty_queries_to_return: e.empty_queries_to_return,
