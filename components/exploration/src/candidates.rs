@@ -36,6 +36,13 @@ pub struct CandidateParams {
     /// Patches with an obstacle patch this near are not candidates (the
     /// rover's body would not fit there), m.
     pub clearance_m: f64,
+    /// ... unless nothing else is left: then a second pass takes patches
+    /// with this much room. The waist of a squeeze, where the body just
+    /// fits, is never a candidate at `clearance_m`, and the cave beyond
+    /// it would never be explored (the simulated tube's squeeze ended
+    /// exploration with a third of its floor unseen); taking such tight
+    /// goals from the start sends the rover along every wall.
+    pub tight_clearance_m: f64,
 }
 
 impl Default for CandidateParams {
@@ -49,6 +56,7 @@ impl Default for CandidateParams {
             border_margin_m: 1.0,
             rejected_radius_m: 1.5,
             clearance_m: 0.45,
+            tight_clearance_m: 0.15,
         }
     }
 }
@@ -71,6 +79,8 @@ pub struct CandidateScan {
     rover: [f64; 2],
     target: Option<[f64; 2]>,
     window: Option<Window>,
+    /// The second pass, with `tight_clearance_m`.
+    tight: bool,
     best: heapless::Vec<Candidate, MAX_CANDIDATES>,
 }
 
@@ -82,6 +92,7 @@ impl CandidateScan {
             rover: [0.0; 2],
             target: None,
             window: None,
+            tight: false,
             best: heapless::Vec::new(),
         }
     }
@@ -96,7 +107,25 @@ impl CandidateScan {
         self.rover = rover;
         self.target = target;
         self.window = window;
+        self.tight = false;
         self.best.clear();
+    }
+
+    /// Scan again with the tight clearance (after a pass that found
+    /// nothing); false when this pass was the tight one already.
+    pub fn tighten(&mut self) -> bool {
+        if self.tight {
+            return false;
+        }
+        self.tight = true;
+        self.next = 0;
+        self.best.clear();
+        true
+    }
+
+    /// This pass takes tight goals.
+    pub fn is_tight(&self) -> bool {
+        self.tight
     }
 
     /// Score up to `nodes` more nodes; true when the whole graph is scanned.
@@ -194,7 +223,12 @@ impl CandidateScan {
         {
             return None;
         }
-        if obstacle_near(trav, n.ix, n.iy, n.ground_z, self.p.clearance_m) {
+        let clearance = if self.tight {
+            self.p.tight_clearance_m
+        } else {
+            self.p.clearance_m
+        };
+        if obstacle_near(trav, n.ix, n.iy, n.ground_z, clearance) {
             return None;
         }
         let unexplored_m2 = unexplored_near(trav, n.ix, n.iy, self.p.unexplored_radius_m);

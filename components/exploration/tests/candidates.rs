@@ -107,3 +107,46 @@ fn a_window_that_cuts_the_corridor_gives_candidates_just_inside_its_border() {
     // ... and the corridor beyond the window is where to go.
     assert!(s.best()[0].position[0] > 6.7, "{:?}", s.best()[0]);
 }
+
+/// A room 4 m long, then a squeeze 1 m wide (the body just fits) seen to
+/// x = 6 m: beyond it nothing was seen.
+fn squeeze() -> TravMap {
+    let mut m = MlsMap::new(MlsParams::default()).expect("mls");
+    points(&mut m, (-1.0, 3.0), (-1.5, 1.5), (0.0, 0.0));
+    points(&mut m, (3.0, 6.0), (-0.5, 0.5), (0.0, 0.0));
+    // The room's walls, its shoulders at x = 3 and the squeeze's sides.
+    points(&mut m, (-1.0, 3.2), (-1.7, -1.5), (0.0, 1.5));
+    points(&mut m, (-1.0, 3.2), (1.5, 1.7), (0.0, 1.5));
+    points(&mut m, (-1.2, -1.0), (-1.7, 1.7), (0.0, 1.5));
+    points(&mut m, (3.0, 3.2), (-1.7, -0.5), (0.0, 1.5));
+    points(&mut m, (3.0, 3.2), (0.5, 1.7), (0.0, 1.5));
+    points(&mut m, (3.0, 6.0), (-0.7, -0.5), (0.0, 1.5));
+    points(&mut m, (3.0, 6.0), (0.5, 0.7), (0.0, 1.5));
+    let mut t = TravMap::new(TravParams::default()).expect("trav");
+    t.build(&m, [0.0, 0.0, 0.0]).expect("build");
+    t
+}
+
+#[test]
+fn the_waist_of_a_squeeze_is_a_candidate_only_when_nothing_roomier_is_left() {
+    let t = squeeze();
+    let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    cov.mark(0.0, 0.0, 0.2, 3.0);
+    let mut s = CandidateScan::new(CandidateParams::default());
+    s.begin([0.0, 0.0], None, None);
+    while !s.step(&t, &cov, &[], 100) {}
+    assert!(s.best().is_empty(), "{:?}", s.best());
+    assert!(s.tighten());
+    assert!(s.is_tight());
+    while !s.step(&t, &cov, &[], 100) {}
+    let best = s.best();
+    assert!(!best.is_empty());
+    // At the squeeze's open end, on its middle line.
+    assert!(best[0].position[0] > 5.5, "{:?}", best[0]);
+    assert!(best[0].position[1].abs() < 0.25, "{:?}", best[0]);
+    // Once: a tight pass is the last.
+    assert!(!s.tighten());
+    // A new scan starts roomy again.
+    s.begin([0.0, 0.0], None, None);
+    assert!(!s.is_tight());
+}

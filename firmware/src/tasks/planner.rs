@@ -481,6 +481,11 @@ impl PlannerTask {
         if !done {
             return Phase::Candidates;
         }
+        // Nothing with room to spare: the tight places (a squeeze's waist)
+        // before giving up here.
+        if scan.best().is_empty() && scan.tighten() {
+            return Phase::Candidates;
+        }
         counters.scans += 1;
         let found = !scan.best().is_empty();
         if matches!(explorer.mode(), Mode::Returning(_)) {
