@@ -333,7 +333,7 @@ pub struct SimArgs {
     /// Seed of every random source of the simulation [default: from config, 1].
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
-    /// Simulated seconds to run at most [default: from config, 3600]; an
+    /// Simulated seconds to run at most [default: from config, 7200]; an
     /// exploration ends earlier, once the rover is home.
     #[arg(long, value_name = "S")]
     pub duration: Option<f64>,

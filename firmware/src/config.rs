@@ -148,7 +148,7 @@ impl Default for SimConfig {
         SimConfig {
             seed: 1,
             world: "lava-tube".into(),
-            duration_s: 3600.0,
+            duration_s: 7200.0,
             lidar: true,
             lidar_rate_hz: 10.0,
             rover_model: "physics".into(),
