@@ -14,6 +14,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::File;
+use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 use std::thread::{JoinHandle, Thread};
 use std::time::Duration;
@@ -72,13 +73,25 @@ pub const NAP: Duration = Duration::from_millis(2);
 fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
     let file = File::create(&opts.path)
         .map_err(|e| format!("cannot create {}: {e}", opts.path.display()))?;
+    start(file, opts)
+}
+
+/// Start a recording on `sink`: header, schemas, channels and the run's
+/// metadata.
+fn start<W: Write + Seek>(sink: W, opts: &WriterOptions) -> Result<mcap::Writer<W>, String> {
     let mut w = mcap::WriteOptions::new()
         .profile("")
         .library(concat!("speleo ", env!("CARGO_PKG_VERSION")))
         .compression(opts.zstd.then_some(mcap::Compression::Zstd))
         .chunk_size(Some(opts.chunk_size))
+        // Each chunk is built in memory and written whole. Written in place,
+        // a chunk's header is patched field by field after its data, and a
+        // writer killed between two of those writes leaves a chunk whose
+        // length is final but whose sizes are placeholders: replay would
+        // have to call it damage instead of a cut.
+        .disable_seeking(true)
         .compression_threads(0)
-        .create(file)
+        .create(sink)
         .map_err(|e| format!("{}: {e}", opts.path.display()))?;
     let mut schema_ids: BTreeMap<&str, u16> = BTreeMap::new();
     for t in Topic::ALL {
@@ -186,4 +199,108 @@ fn run(
     }
     w.finish().map_err(err)?;
     Ok(stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::SeekFrom;
+
+    /// A file in memory that notes every write landing before its end.
+    #[derive(Default)]
+    struct AppendCheck {
+        bytes: Vec<u8>,
+        pos: usize,
+        rewrites: usize,
+    }
+
+    impl Write for AppendCheck {
+        fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+            if self.pos < self.bytes.len() {
+                self.rewrites += 1;
+                self.bytes.truncate(self.pos);
+            }
+            self.bytes.extend_from_slice(b);
+            self.pos = self.bytes.len();
+            Ok(b.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    impl Seek for AppendCheck {
+        fn seek(&mut self, to: SeekFrom) -> std::io::Result<u64> {
+            self.pos = match to {
+                SeekFrom::Start(p) => p as usize,
+                SeekFrom::End(d) => (self.bytes.len() as i64 + d) as usize,
+                SeekFrom::Current(d) => (self.pos as i64 + d) as usize,
+            };
+            Ok(self.pos as u64)
+        }
+    }
+
+    /// A recording of a few chunks of incompressible output messages.
+    fn record(chunk_size: u64) -> AppendCheck {
+        let opts = WriterOptions {
+            path: PathBuf::from("memory.mcap"),
+            zstd: true,
+            chunk_size,
+            pool: 1,
+            large_pool: 0,
+            large_capacity: 0,
+            run_metadata: BTreeMap::from([("epoch_ns".to_string(), "0".to_string())]),
+        };
+        let mut w = start(AppendCheck::default(), &opts).expect("start");
+        let mut x: u32 = 0x2545_F491;
+        for seq in 0..200u32 {
+            let data: Vec<u8> = (0..300)
+                .map(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 17;
+                    x ^= x << 5;
+                    x as u8
+                })
+                .collect();
+            let header = mcap::records::MessageHeader {
+                channel_id: Topic::Imu.channel_id(),
+                sequence: seq,
+                log_time: seq as u64,
+                publish_time: seq as u64,
+            };
+            w.write_to_known_channel(&header, &data).expect("write");
+        }
+        w.finish().expect("finish");
+        w.into_inner()
+    }
+
+    #[test]
+    fn the_file_only_ever_grows_at_its_end() {
+        // A chunk patched in place after its data can be caught half
+        // patched by a kill; appended whole, it is there or cut short.
+        let file = record(8 * 1024);
+        assert_eq!(file.rewrites, 0);
+    }
+
+    #[test]
+    fn every_cut_of_a_recording_is_read_as_a_cut_never_as_damage() {
+        use super::super::read::{parse, ReadError};
+        let file = record(8 * 1024).bytes;
+        let whole = parse(&file, "whole").expect("whole file");
+        assert_eq!(whole.messages, 200);
+        assert!(whole.truncated.is_none());
+        let mut last = 0;
+        for cut in (8..file.len()).step_by(61) {
+            match parse(&file[..cut], "cut") {
+                Ok(r) => {
+                    assert!(r.truncated.is_some(), "cut at {cut}");
+                    assert!(r.messages >= last, "cut at {cut}: fewer messages");
+                    last = r.messages;
+                }
+                Err(ReadError::NothingRecorded { .. }) => assert_eq!(last, 0, "cut at {cut}"),
+                Err(e) => panic!("cut at {cut} of {}: {e}", file.len()),
+            }
+        }
+        assert!(last > 0, "{last}");
+    }
 }
