@@ -118,6 +118,26 @@ impl PlanFollower {
         self.follower.remaining_m(x, y)
     }
 
+    /// The whole plan left to drive, m: the current leg's rest and every
+    /// later leg; zero once done.
+    pub fn plan_left_m(&self, x: f64, y: f64) -> f64 {
+        if self.done() {
+            return 0.0;
+        }
+        let later: f64 = self
+            .legs
+            .iter()
+            .skip(self.leg + 1)
+            .map(|l| {
+                self.poses[l.start..=l.end]
+                    .windows(2)
+                    .map(|w| libm::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]))
+                    .sum::<f64>()
+            })
+            .sum();
+        self.remaining_m(x, y) + later
+    }
+
     pub fn cross_track_m(&self, x: f64, y: f64) -> f64 {
         self.follower.cross_track_m(x, y)
     }

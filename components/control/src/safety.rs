@@ -1,6 +1,8 @@
 //! The safety monitor: the rover is stopped before it leaves the part of
 //! the map it can drive on, when it tilts too far, when it has strayed
-//! from its path, or when it is stuck (commanded motion without progress).
+//! from its path, when it is stuck (commanded motion without progress), or
+//! when it drives without getting any nearer its plan's end (circling a goal
+//! it cannot settle on).
 //! The paper's exploration depends on it: terrain in a cave is unknown, the
 //! rover slips and skids, and a stop is followed by fresh maps and a new
 //! plan.
@@ -40,15 +42,18 @@ pub enum StopReason {
     Stuck = 4,
     /// Farther from the path than the plan's margin.
     OffPath = 5,
+    /// Moving, but the plan left to drive has not shrunk for a long time.
+    NoProgress = 6,
 }
 
 impl StopReason {
-    pub const ALL: [StopReason; 5] = [
+    pub const ALL: [StopReason; 6] = [
         StopReason::LeavingMap,
         StopReason::Blocked,
         StopReason::Tilt,
         StopReason::Stuck,
         StopReason::OffPath,
+        StopReason::NoProgress,
     ];
 
     pub fn name(self) -> &'static str {
@@ -58,6 +63,7 @@ impl StopReason {
             StopReason::Tilt => "tilt",
             StopReason::Stuck => "stuck",
             StopReason::OffPath => "off_path",
+            StopReason::NoProgress => "no_progress",
         }
     }
 
@@ -74,6 +80,11 @@ pub struct SafetyParams {
     /// ... without moving this far or turning this much.
     pub stuck_progress_m: f64,
     pub stuck_turn_rad: f64,
+    /// No progress: the plan left to drive has not shrunk by
+    /// `stuck_progress_m` in this long, s. Turning on the spot counts as
+    /// motion for the stuck test, so a rover circling a goal it overshoots
+    /// is caught only here.
+    pub no_progress_after_s: f64,
     /// From base_link to the front of the wheels, m.
     pub front_m: f64,
     /// How far beyond the front the ground is probed, and in which steps, m.
@@ -102,6 +113,7 @@ impl Default for SafetyParams {
             stuck_after_s: 5.0,
             stuck_progress_m: 0.15,
             stuck_turn_rad: 0.3,
+            no_progress_after_s: 30.0,
             front_m: 0.5,
             probe_ahead_m: 0.8,
             probe_step_m: 0.1,
@@ -128,9 +140,11 @@ pub struct MonitorInput {
     /// The command about to be sent.
     pub v: f64,
     pub w: f64,
-    /// Path left, and the distance from the path, m.
+    /// Path left on the current leg, and the distance from the path, m.
     pub remaining_m: f64,
     pub cross_track_m: f64,
+    /// The whole plan left to drive, m (infinite on a loop: never checked).
+    pub plan_left_m: f64,
 }
 
 /// See the module documentation.
@@ -144,6 +158,9 @@ pub struct SafetyMonitor {
     start_tilt_deg: Option<f64>,
     /// Where the rover stood at the last reset (a plan's start).
     start_xy: Option<[f64; 2]>,
+    /// When the plan left to drive was last seen to shrink, and its
+    /// smallest value since the reset.
+    best_left: Option<(f64, f64)>,
 }
 
 /// A rover already tilted beyond the limit (stopped there) may move as
@@ -160,6 +177,7 @@ impl SafetyMonitor {
             anchor: None,
             start_tilt_deg: None,
             start_xy: None,
+            best_left: None,
         }
     }
 
@@ -172,6 +190,7 @@ impl SafetyMonitor {
         self.anchor = None;
         self.start_tilt_deg = None;
         self.start_xy = None;
+        self.best_left = None;
     }
 
     /// Whether the command must not be sent, and why.
@@ -188,6 +207,9 @@ impl SafetyMonitor {
         }
         if self.stuck(s) {
             return Some(StopReason::Stuck);
+        }
+        if self.no_progress(s) {
+            return Some(StopReason::NoProgress);
         }
         if s.cross_track_m > self.p.max_cross_track_m {
             return Some(StopReason::OffPath);
@@ -213,6 +235,21 @@ impl SafetyMonitor {
             return false;
         }
         s.t_s - t0 > self.p.stuck_after_s
+    }
+
+    fn no_progress(&mut self, s: &MonitorInput) -> bool {
+        if !s.plan_left_m.is_finite() {
+            return false;
+        }
+        match self.best_left {
+            Some((t0, best)) if s.plan_left_m > best - self.p.stuck_progress_m => {
+                s.t_s - t0 > self.p.no_progress_after_s
+            }
+            _ => {
+                self.best_left = Some((s.t_s, s.plan_left_m));
+                false
+            }
+        }
     }
 
     /// The ground ahead in the direction of travel, up to the end of the path.
@@ -300,6 +337,7 @@ mod tests {
             w: 0.0,
             remaining_m: 10.0,
             cross_track_m: 0.0,
+            plan_left_m: 10.0 - x,
         }
     }
 
@@ -454,6 +492,84 @@ mod tests {
         for k in 0..1000 {
             s.t_s = k as f64 * 0.02;
             assert_eq!(m.check(&s, &flat), None);
+        }
+    }
+}
+
+#[cfg(test)]
+mod no_progress_tests {
+    use super::*;
+
+    struct Flat;
+    impl GroundProbe for Flat {
+        fn probe(&self, _x: f64, _y: f64, _z: f64, _tol: f64) -> Probe {
+            Probe::Ground
+        }
+    }
+
+    /// The rover drives a 0.6 m circle around a goal 0.5 m away, never
+    /// within the goal tolerance: always moving and turning, so never
+    /// stuck.
+    fn circling(t: f64) -> MonitorInput {
+        let a = 0.4 * t;
+        let (x, y) = (0.6 * a.cos(), 0.6 * a.sin());
+        MonitorInput {
+            t_s: t,
+            position: [x, y, 0.19],
+            yaw: a + core::f64::consts::FRAC_PI_2,
+            tilt_deg: 2.0,
+            v: 0.24,
+            w: 0.4,
+            remaining_m: (x - 0.5).hypot(y),
+            cross_track_m: 0.1,
+            plan_left_m: (x - 0.5).hypot(y),
+        }
+    }
+
+    #[test]
+    fn a_rover_circling_its_goal_is_stopped_for_making_no_progress() {
+        let p = SafetyParams::default();
+        let mut m = SafetyMonitor::new(p);
+        let mut t = 0.0;
+        let stop = loop {
+            if let Some(r) = m.check(&circling(t), &Flat) {
+                break r;
+            }
+            t += 0.02;
+            assert!(t < 120.0, "never stopped");
+        };
+        assert_eq!(stop, StopReason::NoProgress);
+        // Not before the first lap's closest pass plus the allowance.
+        assert!(
+            t > p.no_progress_after_s && t < p.no_progress_after_s + 20.0,
+            "{t}"
+        );
+    }
+
+    #[test]
+    fn a_slow_plan_that_keeps_getting_nearer_is_not_stopped() {
+        // 1 cm/s (a steep climb), and a 12 s turn on the spot at a cusp.
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        for k in 0..10_000 {
+            let t = k as f64 * 0.02;
+            let turning = (60.0..72.0).contains(&t);
+            let driven = if t < 60.0 {
+                0.01 * t
+            } else {
+                0.6 + 0.01 * (t - 72.0).max(0.0)
+            };
+            let s = MonitorInput {
+                t_s: t,
+                position: [driven, 0.0, 0.19],
+                yaw: if turning { 0.3 * (t - 60.0) } else { 0.0 },
+                tilt_deg: 2.0,
+                v: if turning { 0.0 } else { 0.01 },
+                w: if turning { 0.3 } else { 0.0 },
+                remaining_m: 5.0 - driven,
+                cross_track_m: 0.0,
+                plan_left_m: 5.0 - driven,
+            };
+            assert_eq!(m.check(&s, &Flat), None, "t = {t}");
         }
     }
 }

@@ -27,7 +27,7 @@ pub struct ControlCounters {
     /// Plans followed to their end.
     pub plans_completed: u64,
     /// Safety stops by [`StopReason`] code - 1.
-    pub stops: [u64; 5],
+    pub stops: [u64; StopReason::ALL.len()],
 }
 
 pub struct ControlTask {
@@ -193,6 +193,7 @@ impl Task<Bus> for ControlTask {
                     w: t.w,
                     remaining_m: plans.remaining_m(x, y),
                     cross_track_m: plans.cross_track_m(x, y),
+                    plan_left_m: plans.plan_left_m(x, y),
                 };
                 if let Some(r) = self.monitor.check(&input, &MlsProbe(bus.surface.serving())) {
                     tracing::debug!(
