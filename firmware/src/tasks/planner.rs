@@ -1240,7 +1240,7 @@ mod tests {
     }
 
     #[test]
-    fn a_stuck_rover_backs_out_the_way_it_came_and_remembers_the_place() {
+    fn a_stuck_rover_backs_out_a_metre_straight_then_forward_and_remembers_the_place() {
         use crate::bus::WheelCommand;
         use speleo_control::StopReason;
         let e = crate::config::ExplorationConfig::default();
@@ -1303,6 +1303,39 @@ mod tests {
             .last()
             .unwrap_or_else(|| panic!("no poses"));
         assert!((last[0] - 6.0).abs() < 1e-3, "{last:?}");
+    }
+
+    #[test]
+    fn a_rover_that_made_no_progress_drops_its_goal_without_backing_out() {
+        use crate::bus::WheelCommand;
+        use speleo_control::StopReason;
+        let e = crate::config::ExplorationConfig::default();
+        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);
+        let mut bus = bus_on_a_floor();
+        bus.slam.publish(
+            0,
+            SlamPose {
+                position: [5.0, 2.0, 0.17],
+                orientation: [1.0, 0.0, 0.0, 0.0],
+                keyframes: 1,
+            },
+        );
+        ex.observe(&mut bus, 0);
+        // Circling a goal it could not settle on: the rover moves freely,
+        // so the place is no obstacle, but the goal is not tried again.
+        bus.exploration.goal = Some([5.5, 2.0, 0.0]);
+        bus.command.publish(
+            100_000_000,
+            WheelCommand {
+                done: true,
+                stop: StopReason::NoProgress as u8,
+                ..Default::default()
+            },
+        );
+        assert!(ex.ready(&bus, 100_000_000));
+        assert!(ex.no_go.is_empty());
+        assert!(!ex.retrace_due());
+        assert_eq!(ex.explorer.rejected(), &[[5.5, 2.0]]);
     }
 
     #[test]
