@@ -20,7 +20,10 @@ pub struct ExplorerParams {
     /// ... or when this many queries in a row found nothing to explore
     /// (the maps change between them).
     pub empty_queries_to_return: u32,
-    /// Home is reached within this distance, m.
+    /// Home is reached within this distance, m (estimated). It ends the
+    /// mission wherever the rover is, even mid-plan: at 0.4 m the lava
+    /// tube's mission ended 0.57 m from the true start. The path follower
+    /// stops within 0.2 m of the plan's end, which is home.
     pub home_tolerance_m: f64,
     /// Track points kept for the way home, and their spacing, m.
     pub trail_points: usize,
@@ -35,7 +38,7 @@ impl Default for ExplorerParams {
             coverage_extent_m: 600.0,
             time_limit_s: 3000.0,
             empty_queries_to_return: 3,
-            home_tolerance_m: 0.4,
+            home_tolerance_m: 0.25,
             trail_points: 4096,
             trail_spacing_m: 1.0,
         }
@@ -231,7 +234,10 @@ mod tests {
             e.query_result(false);
         }
         assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        // Passing 0.3 m from home is not home yet; 0.2 m is.
         e.observe(100.0, [0.3, 0.0, 0.2]);
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        e.observe(101.0, [0.2, 0.0, 0.2]);
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
         // Home is home.
         e.resume();
