@@ -12,6 +12,8 @@ pub struct LidarDriver {
     assembler: FrameAssembler,
     /// Point buffers not currently in the mailbox (three in all).
     free: heapless::Vec<Vec<Point>, 3>,
+    /// Arrival of the last packet the assembler took in.
+    last_taken_ns: u64,
 }
 
 impl LidarDriver {
@@ -26,7 +28,11 @@ impl LidarDriver {
             v.clear();
             let _ = free.push(v);
         }
-        LidarDriver { assembler, free }
+        LidarDriver {
+            assembler,
+            free,
+            last_taken_ns: 0,
+        }
     }
 }
 
@@ -57,7 +63,13 @@ impl Task<Bus> for LidarDriver {
                 }
             };
             let t = entry.receive_time_ns;
+            let taken_before = self.assembler.counters.packets;
+            let last_taken = self.last_taken_ns;
             self.assembler.push(&p, |f| {
+                // A frame flushed by a gap or a resync ended with the packet
+                // taken in before this one: stamped with this one's arrival,
+                // it would be dated late by the gap.
+                let stamp = if f.flushed { last_taken } else { t };
                 let Some(mut points) = free.pop() else {
                     c.dropped_frames += 1;
                     return;
@@ -66,7 +78,7 @@ impl Task<Bus> for LidarDriver {
                 let n = f.points.len().min(points.capacity());
                 points.extend_from_slice(&f.points[..n]);
                 let evicted = cloud.publish_recycle(
-                    t,
+                    stamp,
                     Cloud {
                         index: f.index,
                         start_us: f.start_us,
@@ -78,6 +90,9 @@ impl Task<Bus> for LidarDriver {
                     let _ = free.push(old.points);
                 }
             });
+            if self.assembler.counters.packets > taken_before {
+                self.last_taken_ns = t;
+            }
         }
         for (_, bytes) in bus.raw.of(Device::LidarPosition) {
             match PositionPacket::parse(bytes) {
@@ -95,5 +110,55 @@ impl Task<Bus> for LidarDriver {
         c.gaps = a.gaps;
         c.dropped_points = a.dropped_points;
         c.frames = a.frames;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use speleo_hal::hdl32e::encode::{Firing, PacketEncoder};
+    use speleo_hal::hdl32e::{Calibration, Decoder};
+    use speleo_hal::InputSink;
+
+    use crate::tasks::test_context as cx;
+
+    #[test]
+    fn a_revolution_cut_short_by_a_gap_is_dated_by_its_own_last_packet() {
+        let mut bus = Bus::new();
+        let cal = Calibration::nominal();
+        let mut driver =
+            LidarDriver::new(FrameAssembler::new(Decoder::new(&cal), 0.0, 10_000), 10_000);
+        let mut enc = PacketEncoder::new(cal);
+        // 0.2 deg a block: 60 packets are 40 % of a revolution. Then the
+        // sensor falls silent for a second.
+        let period_ns = 552_960u64;
+        let mut sent = Vec::new();
+        let mut k = 0u32;
+        while sent.len() < 61 {
+            let n = sent.len() as u64;
+            let gap = if n == 60 { 1_000_000_000 } else { 0 };
+            let t_ns = 1_000_000_000 + n * period_ns + gap;
+            let mut f = Firing {
+                azimuth: ((20 * k) % 36000) as u16,
+                distance_m: [0.0; speleo_hal::hdl32e::LASERS],
+                intensity: [0; speleo_hal::hdl32e::LASERS],
+            };
+            f.distance_m[0] = 5.0;
+            if let Some(b) = enc.push(&f, (t_ns / 1000) as u32) {
+                // Received 0.2 ms after the last firing.
+                bus.raw.input(Device::Lidar, t_ns + period_ns + 200_000, &b);
+                sent.push(t_ns + period_ns + 200_000);
+            }
+            k += 1;
+        }
+        driver.run(&mut bus, &cx(1));
+        let cloud = bus.cloud.get().unwrap_or_else(|| panic!("no cloud"));
+        assert_eq!(bus.lidar.gaps, 1);
+        assert_eq!(
+            cloud.stamp_ns,
+            sent[59],
+            "dated {} ns late",
+            cloud.stamp_ns - sent[59]
+        );
     }
 }

@@ -54,6 +54,10 @@ pub struct Frame<'a> {
     /// packet's arrival, less only the network's latency.
     pub end_us: f64,
     pub points: &'a [Point],
+    /// Emitted by [`FrameAssembler::flush`] (a gap, a resync, the end of a
+    /// capture): its last packet is the one taken in before the packet
+    /// being pushed, which arrived later by the gap.
+    pub flushed: bool,
 }
 
 pub struct FrameAssembler {
@@ -175,6 +179,7 @@ impl FrameAssembler {
                     start_us: start,
                     end_us,
                     points,
+                    flushed: false,
                 });
                 points.clear();
                 start = block_us(split as u8);
@@ -196,6 +201,7 @@ impl FrameAssembler {
                 start_us: start,
                 end_us,
                 points: &self.points,
+                flushed: false,
             });
             self.points.clear();
             start = block_us(split as u8);
@@ -217,6 +223,7 @@ impl FrameAssembler {
             start_us: self.start_us.unwrap_or(0.0),
             end_us: self.end_us,
             points: &self.points,
+            flushed: true,
         });
         self.index += 1;
         self.points.clear();
