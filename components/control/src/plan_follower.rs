@@ -15,6 +15,8 @@ pub struct PlanFollower {
     poses: heapless::Vec<[f64; 3], MAX_WAYPOINTS>,
     legs: heapless::Vec<Leg, MAX_LEGS>,
     leg: usize,
+    /// Per leg, the length of the legs after it, m (set with the plan).
+    left_after: heapless::Vec<f64, MAX_LEGS>,
 }
 
 impl PlanFollower {
@@ -27,6 +29,7 @@ impl PlanFollower {
             poses: heapless::Vec::new(),
             legs: heapless::Vec::new(),
             leg: 0,
+            left_after: heapless::Vec::new(),
         }
     }
 
@@ -40,6 +43,16 @@ impl PlanFollower {
             }
         }
         split_legs(&self.poses, &mut self.legs);
+        self.left_after.clear();
+        let mut after = 0.0;
+        for l in self.legs.iter().rev() {
+            let _ = self.left_after.push(after);
+            after += self.poses[l.start..=l.end]
+                .windows(2)
+                .map(|w| libm::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]))
+                .sum::<f64>();
+        }
+        self.left_after.reverse();
         self.leg = 0;
         if self.start_leg() {
             true
@@ -124,17 +137,7 @@ impl PlanFollower {
         if self.done() {
             return 0.0;
         }
-        let later: f64 = self
-            .legs
-            .iter()
-            .skip(self.leg + 1)
-            .map(|l| {
-                self.poses[l.start..=l.end]
-                    .windows(2)
-                    .map(|w| libm::hypot(w[1][0] - w[0][0], w[1][1] - w[0][1]))
-                    .sum::<f64>()
-            })
-            .sum();
+        let later = self.left_after.get(self.leg).copied().unwrap_or(0.0);
         self.remaining_m(x, y) + later
     }
 
@@ -145,5 +148,43 @@ impl PlanFollower {
     /// The plan's last pose.
     pub fn goal(&self) -> Option<[f64; 3]> {
         self.poses.last().copied()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::f64::consts::PI;
+
+    #[test]
+    fn the_plan_left_counts_every_later_leg_and_shrinks_leg_by_leg() {
+        let mut f = PlanFollower::new(FollowerParams {
+            lookahead_m: 0.8,
+            cruise_speed: 0.4,
+            max_yaw_rate: 0.8,
+            goal_tolerance_m: 0.2,
+        });
+        // A three-point turn: 2 m forward, 0.5 m back, 1.6 m forward.
+        let poses = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [1.6, -0.3, 0.8],
+            [1.6, -0.3, 1.6],
+            [1.0, 0.0, PI],
+            [0.0, 0.0, PI],
+        ];
+        assert!(f.set_plan(poses));
+        let back = 0.5;
+        let out = 0.6f64.hypot(0.3) + 1.0;
+        assert!((f.plan_left_m(0.0, 0.0) - (2.0 + back + out)).abs() < 1e-9);
+        // Halfway along the first leg.
+        assert!((f.plan_left_m(1.0, 0.0) - (1.0 + back + out)).abs() < 1e-9);
+        // On the last leg, only its rest.
+        f.leg = 2;
+        assert!(f.start_leg());
+        assert!((f.plan_left_m(1.0, 0.0) - 1.0).abs() < 1e-9);
+        f.abandon();
+        assert_eq!(f.plan_left_m(1.0, 0.0), 0.0);
     }
 }
