@@ -20,7 +20,7 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use speleo_mapping::mls::{MlsMap, Patch, PatchKind};
+use speleo_mapping::mls::{ground_near, MlsMap, Patch, PatchKind};
 use thiserror::Error;
 
 use crate::params::TravParams;
@@ -28,12 +28,6 @@ use crate::plane;
 
 /// No node.
 pub const NONE: u32 = u32::MAX;
-/// Tall cells in a row that growth crosses on their tops (see
-/// `TravMap::top_of_tall`). A crack in the floor this wide (0.3 m at
-/// 0.1 m cells) looks the same and is crossed too: less than the
-/// leg-wheels' 0.38 m diameter.
-const TALL_CELLS: i32 = 3;
-
 /// The 8 neighbours, counter-clockwise from +x.
 pub const NEIGHBOURS: [(i32, i32); 8] = [
     (1, 0),
@@ -293,11 +287,10 @@ impl TravMap {
         if !self.in_window(ix, iy) {
             return Err(no_start);
         }
-        let Some(p) = ground_patch(mls.cell(ix, iy), start[2] as f32, self.params.max_step_m)
-        else {
+        let Some(z) = ground_near(mls.cell(ix, iy), start[2] as f32, self.params.max_step_m) else {
             return Err(no_start);
         };
-        let first = self.add_node(ix, iy, p.mean).ok_or(no_start)?;
+        let first = self.add_node(ix, iy, z).ok_or(no_start)?;
         self.queue.push_back(first);
         Ok(())
     }
@@ -347,16 +340,10 @@ impl TravMap {
                 continue;
             }
             let cell = mls.cell(jx, jy);
-            let z = match ground_patch(cell, n.patch_z, self.params.max_step_m) {
-                Some(q) => q.mean,
-                // A wall or a drop seen there: no link, unless it is ground
-                // with more seen beneath it.
-                None if occupied_near(cell, n.patch_z, &self.params) => {
-                    match self.top_of_tall(mls, &n, (*dx, *dy)) {
-                        Some(z) => z,
-                        None => continue,
-                    }
-                }
+            let z = match ground_near(cell, n.patch_z, self.params.max_step_m) {
+                Some(z) => z,
+                // A wall or a drop seen there: no link.
+                None if occupied_near(cell, n.patch_z, &self.params) => continue,
                 // Nothing seen: bridged if ground lies a little further on.
                 None => match self.bridge(mls, &n, (*dx, *dy)) {
                     Some(z) => z,
@@ -401,38 +388,12 @@ impl TravMap {
         for k in 2..=cells + 1 {
             let cell = mls.cell(n.ix + k * d.0, n.iy + k * d.1);
             let tol = self.params.max_step_m * k as f32;
-            if let Some(q) = ground_patch(cell, n.patch_z, tol) {
-                return Some(n.patch_z + (q.mean - n.patch_z) / k as f32);
+            if let Some(g) = ground_near(cell, n.patch_z, tol) {
+                return Some(n.patch_z + (g - n.patch_z) / k as f32);
             }
             if occupied_near(cell, n.patch_z, &self.params) {
                 return None;
             }
-        }
-        None
-    }
-
-    /// The height for the cell next to `n` in direction `d` when its one
-    /// tall patch is ground at `n`'s height with more seen beneath it: the
-    /// low end of a ramp's slab where the floor shows under it, which the
-    /// MLS merges into one patch (the two lie within its gap). Its top,
-    /// when that is within a step of `n` and ground carries on within a
-    /// step a cell from it, after at most [`TALL_CELLS`] such cells; a
-    /// ledge's rim has nothing beyond at its height and stays a wall.
-    fn top_of_tall(&self, mls: &MlsMap, n: &Node, d: (i32, i32)) -> Option<f32> {
-        let step = self.params.max_step_m;
-        let tall_top = |k: i32, z: f32| {
-            mls.cell(n.ix + k * d.0, n.iy + k * d.1)
-                .iter()
-                .find(|q| q.kind == PatchKind::Vertical && (q.max - z).abs() <= step)
-                .map(|q| q.max)
-        };
-        let first = tall_top(1, n.patch_z)?;
-        let mut z = first;
-        for k in 2..=TALL_CELLS + 1 {
-            if ground_patch(mls.cell(n.ix + k * d.0, n.iy + k * d.1), z, step).is_some() {
-                return Some(first);
-            }
-            z = tall_top(k, z)?;
         }
         None
     }
@@ -483,10 +444,10 @@ impl TravMap {
                 }
                 let (x, y) = (cx + dx as f64 * res, cy + dy as f64 * res);
                 let cell = mls.cell(n.ix + dx, n.iy + dy);
-                if let Some(g) = ground_patch(cell, n.patch_z, band) {
+                if let Some(g) = ground_near(cell, n.patch_z, band) {
                     if self.support.len() < self.support.capacity() {
-                        self.support.push([x, y, g.mean as f64]);
-                        self.heights[(dy + reach) as usize * side + (dx + reach) as usize] = g.mean;
+                        self.support.push([x, y, g as f64]);
+                        self.heights[(dy + reach) as usize * side + (dx + reach) as usize] = g;
                     }
                 } else {
                     // Ground too high to be this one's continuation, under
@@ -607,14 +568,6 @@ fn has_step(heights: &[f32], side: usize, max_step: f32) -> bool {
             right || up
         })
     })
-}
-
-/// The horizontal patch of a cell nearest `z` within `tol` (the lower on a
-/// tie).
-fn ground_patch(cell: &[Patch], z: f32, tol: f32) -> Option<&Patch> {
-    cell.iter()
-        .filter(|q| q.kind == PatchKind::Horizontal && (q.mean - z).abs() <= tol)
-        .min_by(|a, b| (a.mean - z).abs().total_cmp(&(b.mean - z).abs()))
 }
 
 /// Whether a cell holds anything between a step below `z` and the robot's

@@ -1,7 +1,7 @@
 //! Traversability classes on synthetic terrain: slope, step, obstacle,
 //! unknown, explorable, frontier, and two levels over each other.
 
-use speleo_mapping::mls::{MlsMap, MlsParams};
+use speleo_mapping::mls::{MlsMap, MlsParams, PatchKind};
 use speleo_traversability::{TravClass, TravMap, TravParams, Window, NONE};
 
 /// Points every 5 cm over `[x0, x1) x [y0, y1)` at height `z(x, y)`.
@@ -300,6 +300,80 @@ fn a_ramp_slab_over_floor_seen_beneath_it_is_still_climbed() {
     assert!(
         up.is_some_and(|n| n.class.is_drivable()),
         "the ramp is not reached: {up:?}"
+    );
+}
+
+/// Higher up, the LiDAR of a rover beside the ramp sees the slab's
+/// underside too, a slab's thickness under its top: within the MLS's gap,
+/// so each cell holds one tall patch from underside to top. The ramp is
+/// still ground up to its high end, on the patches' tops.
+#[test]
+fn a_ramp_slab_seen_from_above_and_below_is_climbed_on_its_top() {
+    let mut m = mls();
+    let rise = 14f64.to_radians().tan();
+    let ramp = |x: f64| rise * (x - 3.0);
+    surface(&mut m, (0.0, 3.0), (0.0, 4.0), |_, _| 0.0);
+    // The upper level at the ramp's high end.
+    surface(&mut m, (13.0, 16.0), (0.0, 4.0), |_, _| ramp(13.0));
+    let mut pts = Vec::new();
+    let mut px = 3.025;
+    while px < 13.0 {
+        let mut py = 0.525;
+        while py < 3.5 {
+            // Underside first in some cells, top first in others.
+            let (top, under) = ([px, py, ramp(px)], [px, py, ramp(px) - 0.25]);
+            if (px * 20.0) as i64 % 2 == 0 {
+                pts.extend([top, under]);
+            } else {
+                pts.extend([under, top]);
+            }
+            py += 0.05;
+        }
+        px += 0.05;
+    }
+    m.insert_points(&pts);
+    let tall = m
+        .cell(m.cell_of(8.0, 2.0).0, m.cell_of(8.0, 2.0).1)
+        .iter()
+        .any(|q| q.kind == PatchKind::Vertical);
+    assert!(tall, "the slab should read as one tall patch");
+    let t = build(&m, [1.0, 2.0, 0.0]);
+    for x in [5.0f64, 8.0, 12.0, 14.5] {
+        let z = ramp(x.min(13.0));
+        let n = t.node_at(x, 2.0, z, 0.15).and_then(|i| t.node(i));
+        assert!(
+            n.is_some_and(|n| n.class.is_drivable() && (n.patch_z as f64 - z).abs() < 0.05),
+            "at x = {x}: {n:?}"
+        );
+    }
+}
+
+/// The tall patch of a ledge's face is ground only at its rim, where the
+/// upper floor meets it: from the lower floor it stays a wall.
+#[test]
+fn a_ledge_face_is_a_wall_from_below() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 3.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (3.0, 6.0), (0.0, 4.0), |_, _| 0.6);
+    // The face, seen from the lower floor, in the upper floor's first cells.
+    let mut face = Vec::new();
+    for iy in 0..80 {
+        let mut h = 0.0;
+        while h <= 0.6 {
+            face.push([3.025, 0.025 + iy as f64 * 0.05, h]);
+            h += 0.02;
+        }
+    }
+    m.insert_points(&face);
+    let t = build(&m, [1.0, 2.0, 0.0]);
+    assert!(
+        t.node_at(4.5, 2.0, 0.6, 0.15).is_none(),
+        "climbed a 0.6 m ledge"
+    );
+    let from_above = build(&m, [4.5, 2.0, 0.6]);
+    assert!(
+        from_above.node_at(1.0, 2.0, 0.0, 0.15).is_none(),
+        "stepped off it"
     );
 }
 

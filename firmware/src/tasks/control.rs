@@ -15,7 +15,7 @@ use speleo_control::{
     AccelLimiter, FollowerParams, GroundProbe, PlanFollower, Probe, PurePursuit, SafetyMonitor,
     SkidSteer, StopReason, Twist,
 };
-use speleo_mapping::mls::{MlsMap, PatchKind};
+use speleo_mapping::mls::{ground_near, MlsMap};
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::{Bus, WheelCommand};
@@ -140,18 +140,10 @@ impl GroundProbe for MlsProbe<'_> {
     fn probe(&self, x: f64, y: f64, z: f64, tol_m: f64) -> Probe {
         let (ix, iy) = self.0.cell_of(x, y);
         let cell = self.0.cell(ix, iy);
-        let ground = cell
-            .iter()
-            .filter(|p| p.kind == PatchKind::Horizontal && (p.mean as f64 - z).abs() <= tol_m)
-            .min_by(|a, b| {
-                (a.mean as f64 - z)
-                    .abs()
-                    .total_cmp(&(b.mean as f64 - z).abs())
-            });
-        let Some(g) = ground else {
+        let Some(g) = ground_near(cell, z as f32, tol_m as f32) else {
             return Probe::NoGround;
         };
-        let (lo, hi) = (g.mean + BODY_BAND_M.0, g.mean + BODY_BAND_M.1);
+        let (lo, hi) = (g + BODY_BAND_M.0, g + BODY_BAND_M.1);
         if cell.iter().any(|p| p.max >= lo && p.min <= hi) {
             Probe::Blocked
         } else {

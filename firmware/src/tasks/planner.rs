@@ -17,7 +17,7 @@
 //! `planner.max_nodes` nodes and the window's cells: nothing is allocated
 //! while planning.
 
-use speleo_mapping::mls::{MlsMap, PatchKind};
+use speleo_mapping::mls::{ground_near, MlsMap};
 use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
 use speleo_planner::mprim::MprimFile;
 use speleo_planner::surface::{SurfaceLattice, SOLID_PER_CELL};
@@ -875,14 +875,10 @@ fn start_candidates(
                 continue;
             }
             let cell = mls.cell(cx + dx, cy + dy);
-            let Some(p) = cell
-                .iter()
-                .filter(|p| p.kind == PatchKind::Horizontal && (p.mean - ground).abs() <= tol)
-                .min_by(|a, b| (a.mean - ground).abs().total_cmp(&(b.mean - ground).abs()))
-            else {
+            let Some(g) = ground_near(cell, ground, tol) else {
                 continue;
             };
-            let e = (d2, cx + dx, cy + dy, p.mean);
+            let e = (d2, cx + dx, cy + dy, g);
             let key = |v: &(i64, i32, i32, f32)| (v.0, v.1, v.2);
             let at = best
                 .iter()

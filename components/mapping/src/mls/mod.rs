@@ -14,4 +14,4 @@ mod map;
 mod patch;
 
 pub use map::{InsertStats, MlsMap, MlsParams, MlsStats, MAX_CELLS, MAX_PATCHES_PER_CELL};
-pub use patch::{Patch, PatchKind};
+pub use patch::{ground_near, Patch, PatchKind, TOP_BAND_M};

@@ -8,9 +8,16 @@ pub enum PatchKind {
     #[default]
     Horizontal,
     /// A wall, or any surface whose points span more height than
-    /// `vertical_threshold_m` within the cell: an obstacle.
+    /// `vertical_threshold_m` within the cell. Its `top` is ground only
+    /// where ground beside it meets it (a slab seen from above and below,
+    /// the rim of a ledge); elsewhere it is an obstacle.
     Vertical,
 }
+
+/// Points within this height of a patch's top cluster belong to it (m):
+/// a slab's top over a 0.1 m cell spans its slope and the range noise,
+/// while its underside lies a slab's thickness lower.
+pub const TOP_BAND_M: f32 = 0.1;
 
 /// One surface in a cell: the points within `gap_m` of one another in
 /// height, summarised.
@@ -25,8 +32,14 @@ pub struct Patch {
     pub min: f32,
     /// Highest point height (m).
     pub max: f32,
+    /// Mean height of the highest cluster of points (those within
+    /// [`TOP_BAND_M`] of it): the surface on top of a tall patch, such as
+    /// a ramp's slab whose underside the LiDAR saw too.
+    pub top: f32,
     /// Points merged into the patch.
     pub count: u32,
+    /// Points in the top cluster (saturates).
+    pub top_count: u16,
     pub kind: PatchKind,
 }
 
@@ -38,8 +51,33 @@ impl Patch {
             variance,
             min: z,
             max: z,
+            top: z,
             count: 1,
+            top_count: 1,
             kind: PatchKind::Horizontal,
+        }
+    }
+
+    /// The height one would stand at on this patch: the mean of a
+    /// horizontal patch, the top of a vertical one.
+    pub fn ground(&self) -> f32 {
+        match self.kind {
+            PatchKind::Horizontal => self.mean,
+            PatchKind::Vertical => self.top,
+        }
+    }
+
+    /// Adds a point at `z` to the top cluster: a point over the cluster's
+    /// band starts a new one (a higher surface), one under it is not on top.
+    #[inline(always)]
+    fn add_top(&mut self, z: f32, n: u16) {
+        if z > self.top + TOP_BAND_M {
+            self.top = z;
+            self.top_count = n;
+        } else if z >= self.top - TOP_BAND_M {
+            let total = self.top_count.saturating_add(n);
+            self.top += (z - self.top) * (n as f32 / total as f32);
+            self.top_count = total;
         }
     }
 
@@ -81,6 +119,7 @@ impl Patch {
         if z > self.max {
             self.max = z;
         }
+        self.add_top(z, 1);
         self.count = self.count.saturating_add(1);
     }
 
@@ -97,6 +136,7 @@ impl Patch {
         self.min = self.min.min(other.min);
         self.max = self.max.max(other.max);
         self.count = self.count.saturating_add(other.count);
+        self.add_top(other.top, other.top_count);
         if other.kind == PatchKind::Vertical {
             self.kind = PatchKind::Vertical;
         }
@@ -209,6 +249,15 @@ fn merge_around(patches: &mut [Patch], len: &mut usize, mut i: usize, rule: &Cel
     merged
 }
 
+/// The ground height of `cell` nearest `z` within `tol` (the lower on a
+/// tie): a horizontal patch's mean, or a vertical one's top.
+pub fn ground_near(cell: &[Patch], z: f32, tol: f32) -> Option<f32> {
+    cell.iter()
+        .map(Patch::ground)
+        .filter(|g| (g - z).abs() <= tol)
+        .min_by(|a, b| (a - z).abs().total_cmp(&(b - z).abs()))
+}
+
 fn remove(patches: &mut [Patch], len: &mut usize, at: usize) {
     patches.copy_within(at + 1..*len, at);
     *len -= 1;
@@ -260,6 +309,37 @@ mod tests {
         assert_eq!(p[0].count, 5);
         assert_eq!(p[0].kind, PatchKind::Vertical);
         assert_eq!(p[1].min, 2.0);
+    }
+
+    #[test]
+    fn a_slab_seen_from_both_sides_is_tall_with_its_top_as_ground() {
+        // A 0.25 m slab at 1.0: top and underside points in either order.
+        let top = [1.0, 1.02, 0.98, 1.01, 0.99];
+        let under = [0.75, 0.77, 0.74, 0.76];
+        for (first, then) in [(&top[..], &under[..]), (&under[..], &top[..])] {
+            let mut p = [Patch::default(); 4];
+            let mut n = 0;
+            offer(&mut p, &mut n, first);
+            offer(&mut p, &mut n, then);
+            assert_eq!(n, 1);
+            assert_eq!(p[0].kind, PatchKind::Vertical);
+            assert!((p[0].ground() - 1.0).abs() < 0.01, "{:?}", p[0]);
+            assert_eq!(p[0].top_count, 5);
+            assert_eq!(ground_near(&p[..n], 0.95, 0.1), Some(p[0].top));
+            assert_eq!(ground_near(&p[..n], 0.75, 0.1), None);
+        }
+        // Fused from two patches: the higher one's top.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        offer(&mut p, &mut n, &[1.0, 0.5, 0.8]);
+        assert_eq!(n, 1, "{:?}", &p[..n]);
+        assert_eq!(p[0].ground(), 1.0);
+        // A horizontal patch stands at its mean.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        offer(&mut p, &mut n, &[0.0, 0.1]);
+        assert!((p[0].ground() - 0.05).abs() < 1e-6);
+        assert!((p[0].top - 0.05).abs() < 1e-6);
     }
 
     /// The update as first written (branching distance, fusion tried on
