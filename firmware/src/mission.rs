@@ -335,7 +335,7 @@ pub fn run<C: FrameClock>(
             crate::keyframe_clouds::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
         t_slam = t_slam.with_maps(cfg.maps.range_m, cfg.maps.keyframe_points);
         bus.surface = crate::surface_maps::SurfaceMaps::new(cfg.maps.mls_params())?;
-        maps::MapsTask::new(&cfg.maps, kf_capacity)?
+        maps::MapsTask::new(&cfg.maps, kf_capacity)?.with_sensor_at(cfg.lidar.mount_xyz)
     } else {
         // Idle: nothing ever reaches the keyframe clouds.
         maps::MapsTask::new(

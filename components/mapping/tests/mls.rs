@@ -5,7 +5,7 @@ mod common;
 
 use common::{Rng, TUBE};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-use speleo_mapping::mls::{MlsMap, MlsParams, PatchKind};
+use speleo_mapping::mls::{self, MlsMap, MlsParams, PatchKind};
 use speleo_mapping::ParamsError;
 
 fn map(params: MlsParams) -> MlsMap {
@@ -423,4 +423,31 @@ fn the_tube_has_floor_and_vault_in_the_same_cells_and_vertical_walls() {
         wall > 100 && vertical * 10 >= wall * 8,
         "{vertical} of {wall}"
     );
+}
+
+#[test]
+fn a_slab_seen_only_from_below_is_an_underside_until_seen_from_above() {
+    let mut m = map(MlsParams::default());
+    // The underside of a slab whose top is at 1.0, from a sensor at 0.5.
+    let under = [[0.05, 0.05, 0.75], [0.05, 0.05, 0.76]];
+    m.insert_points_seen_from(&under, 0.5);
+    let p = m.cell(0, 0)[0];
+    assert!(!p.seen_from_above);
+    assert!(p.underside_for(1.0), "{p:?}");
+    assert!(
+        !p.underside_for(0.8),
+        "at its own height it is what is seen"
+    );
+    // What stands at 1.0 cannot be known from it, at 0.75 it is ground.
+    assert_eq!(mls::ground_near(m.cell(0, 0), 1.0, 0.3), None);
+    assert!(mls::ground_near(m.cell(0, 0), 0.75, 0.1).is_some());
+    // The top, seen from a sensor over it: one tall patch standing at it.
+    m.insert_points_seen_from(&[[0.05, 0.05, 1.0], [0.05, 0.05, 1.01]], 1.5);
+    let p = m.cell(0, 0)[0];
+    assert!(p.seen_from_above && !p.underside_for(1.0));
+    assert!((p.ground() - 1.005).abs() < 1e-3, "{p:?}");
+    // Points of a sensor unknown count as seen from above.
+    let mut m = map(MlsParams::default());
+    m.insert_points(&under);
+    assert!(m.cell(0, 0)[0].seen_from_above);
 }

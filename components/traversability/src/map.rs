@@ -570,9 +570,11 @@ fn has_step(heights: &[f32], side: usize, max_step: f32) -> bool {
     })
 }
 
-/// Whether a cell holds anything between a step below `z` and the robot's
-/// height above it (a wall or a drop seen, rather than nothing seen).
+/// Whether a cell holds anything between a metre below `z` and the
+/// robot's height above it (a wall or a drop seen, rather than nothing
+/// seen). An underside seen only from below is not a drop seen.
 fn occupied_near(cell: &[Patch], z: f32, p: &TravParams) -> bool {
     let (lo, hi) = (z - 1.0, z + p.robot_height_m);
-    cell.iter().any(|q| q.max >= lo && q.min <= hi)
+    cell.iter()
+        .any(|q| q.max >= lo && q.min <= hi && !q.underside_for(z))
 }

@@ -71,6 +71,9 @@ pub struct MapsTask {
     generation_seen: u64,
     reproject_m: f64,
     reproject_rad: f64,
+    /// The LiDAR's position in the base frame: what a point was seen
+    /// from (over it or under it) matters to the MLS.
+    sensor_in_base: nalgebra::Vector3<f64>,
     /// Scratch: one step's points in the map frame.
     scratch: Vec<[f64; 3]>,
     points_per_step: usize,
@@ -100,10 +103,17 @@ impl MapsTask {
             generation_seen: 0,
             reproject_m,
             reproject_rad: reproject_deg.to_radians(),
+            sensor_in_base: nalgebra::Vector3::zeros(),
             scratch: Vec::with_capacity(points_per_step),
             points_per_step,
             counters: MapsCounters::default(),
         })
+    }
+
+    /// The LiDAR sits at `xyz` in the base frame (`lidar.mount_xyz`).
+    pub fn with_sensor_at(mut self, xyz: [f64; 3]) -> Self {
+        self.sensor_in_base = nalgebra::Vector3::from(xyz);
+        self
     }
 
     /// Whether some keyframe in the serving map has moved beyond the
@@ -143,7 +153,11 @@ impl MapsTask {
             }
             self.scratch.push([v.x, v.y, v.z]);
         }
-        let stats = bus.surface.map_mut(m).insert_points(&self.scratch);
+        let sensor_z = pose.transform(&self.sensor_in_base).z;
+        let stats = bus
+            .surface
+            .map_mut(m)
+            .insert_points_seen_from(&self.scratch, sensor_z);
         self.counters.points_inserted += stats.inserted;
         let next = c.point + taken;
         (next < n).then_some(Cursor {

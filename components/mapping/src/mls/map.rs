@@ -40,6 +40,8 @@ struct Pending {
     ix: i32,
     iy: i32,
     z: f32,
+    /// The sensor was at or over the point.
+    from_above: bool,
     home: u32,
     cell: u32,
 }
@@ -218,7 +220,7 @@ impl MlsMap {
         let (r00, r01, r02) = (m[(0, 0)], m[(0, 1)], m[(0, 2)]);
         let (r10, r11, r12) = (m[(1, 0)], m[(1, 1)], m[(1, 2)]);
         let (r20, r21, r22) = (m[(2, 0)], m[(2, 1)], m[(2, 2)]);
-        self.insert_with(points_sensor, |p| {
+        self.insert_with(points_sensor, t.z, |p| {
             let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
             [
                 r00 * x + r01 * y + r02 * z + t.x,
@@ -228,9 +230,22 @@ impl MlsMap {
         })
     }
 
-    /// Inserts points already in the map frame. Allocates nothing.
+    /// Inserts points already in the map frame, of a sensor unknown: they
+    /// count as seen from above. Allocates nothing.
     pub fn insert_points(&mut self, points_map: &[[f64; 3]]) -> InsertStats {
-        self.insert_with(points_map, |&q| q)
+        self.insert_with(points_map, f64::INFINITY, |&q| q)
+    }
+
+    /// Inserts points already in the map frame, seen from a sensor at
+    /// height `sensor_z`: those over it were seen from below (see
+    /// [`Patch::underside_for`](super::Patch::underside_for)). Allocates
+    /// nothing.
+    pub fn insert_points_seen_from(
+        &mut self,
+        points_map: &[[f64; 3]],
+        sensor_z: f64,
+    ) -> InsertStats {
+        self.insert_with(points_map, sensor_z, |&q| q)
     }
 
     /// Inserts `points`, mapped by `to_map`, in their order, as a software
@@ -240,13 +255,18 @@ impl MlsMap {
     /// firing land in far-apart cells). The map is the same as applying
     /// the points one after the other.
     #[inline(always)]
-    fn insert_with<P>(&mut self, points: &[P], to_map: impl Fn(&P) -> [f64; 3]) -> InsertStats {
+    fn insert_with<P>(
+        &mut self,
+        points: &[P],
+        sensor_z: f64,
+        to_map: impl Fn(&P) -> [f64; 3],
+    ) -> InsertStats {
         let mut s = InsertStats::default();
         let mut ring = [Pending::default(); RING];
         let n = points.len();
         for k in 0..n + SLOT_AHEAD {
             if k < n {
-                ring[k % RING] = self.locate(to_map(&points[k]));
+                ring[k % RING] = self.locate(to_map(&points[k]), sensor_z);
             }
             if let Some(j) = (k + CELL_AHEAD).checked_sub(SLOT_AHEAD) {
                 if j < n {
@@ -263,7 +283,7 @@ impl MlsMap {
 
     /// Stage 1: the point's cell and table slot, the slot prefetched.
     #[inline(always)]
-    fn locate(&self, q: [f64; 3]) -> Pending {
+    fn locate(&self, q: [f64; 3], sensor_z: f64) -> Pending {
         // NaN fails every comparison: one test rejects NaN and infinities.
         let (fx, fy) = (q[0] * self.inv_res, q[1] * self.inv_res);
         if !(fx.abs() < MAX_CELL_COORD && fy.abs() < MAX_CELL_COORD && q[2].abs() <= MAX_HEIGHT_M) {
@@ -280,6 +300,7 @@ impl MlsMap {
             ix,
             iy,
             z: q[2] as f32,
+            from_above: sensor_z >= q[2],
             cell: UNKNOWN,
             home: home as u32,
         }
@@ -334,7 +355,7 @@ impl MlsMap {
         let base = cell * self.stride;
         let mut len = self.lens[cell] as usize;
         let slots = &mut self.patches[base..base + self.stride];
-        match patch::insert(slots, &mut len, p.z, &self.rule) {
+        match patch::insert(slots, &mut len, p.z, p.from_above, &self.rule) {
             CellUpdate::Updated { merged } => {
                 self.patch_total -= merged as usize;
                 s.inserted += 1;

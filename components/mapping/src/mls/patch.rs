@@ -19,6 +19,12 @@ pub enum PatchKind {
 /// while its underside lies a slab's thickness lower.
 pub const TOP_BAND_M: f32 = 0.1;
 
+/// Empty height between a patch's top cluster and the highest point under
+/// it that makes the top a surface of its own (m): a slab's top over its
+/// underside (0.25 m lower, less noise and slope), not a rock's top over
+/// its flanks, whose points fill the height between.
+pub const SLAB_GAP_M: f32 = 0.12;
+
 /// One surface in a cell: the points within `gap_m` of one another in
 /// height, summarised.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
@@ -38,46 +44,72 @@ pub struct Patch {
     pub top: f32,
     /// Points merged into the patch.
     pub count: u32,
+    /// The highest point under the top cluster (`f32::MIN` when none).
+    pub under: f32,
     /// Points in the top cluster (saturates).
     pub top_count: u16,
     pub kind: PatchKind,
+    /// Some point of it was seen from a sensor at or over its height. A
+    /// patch only ever seen from below may be the underside of a slab whose
+    /// top was not seen: under a height where one stands, it is neither
+    /// ground nor a drop (see [`Patch::underside_for`]).
+    pub seen_from_above: bool,
 }
 
 impl Patch {
-    /// A patch of one point.
-    pub fn new(z: f32, variance: f32) -> Patch {
+    /// A patch of one point, seen from above or below.
+    pub fn new(z: f32, variance: f32, from_above: bool) -> Patch {
         Patch {
             mean: z,
             variance,
             min: z,
             max: z,
             top: z,
+            under: f32::MIN,
             count: 1,
             top_count: 1,
             kind: PatchKind::Horizontal,
+            seen_from_above: from_above,
         }
     }
 
-    /// The height one would stand at on this patch: the mean of a
-    /// horizontal patch, the top of a vertical one.
+    /// Whether this patch, only ever seen from below and wholly more than
+    /// [`TOP_BAND_M`] under height `z`, says nothing of what is at `z`: a
+    /// slab's underside seen from the floor beside it, whose top the rings
+    /// missed. One cannot see a drop from below.
+    pub fn underside_for(&self, z: f32) -> bool {
+        !self.seen_from_above && self.max < z - TOP_BAND_M
+    }
+
+    /// The height one would stand at on this patch: the top of a vertical
+    /// one, or of a horizontal one whose top lies [`SLAB_GAP_M`] clear of
+    /// its other points (a slab seen from both sides whose underside
+    /// outnumbers its top); else the mean.
     pub fn ground(&self) -> f32 {
-        match self.kind {
-            PatchKind::Horizontal => self.mean,
-            PatchKind::Vertical => self.top,
+        let slab = self.under > f32::MIN && self.top - self.under > SLAB_GAP_M;
+        if self.kind == PatchKind::Vertical || slab {
+            self.top
+        } else {
+            self.mean
         }
     }
 
-    /// Adds a point at `z` to the top cluster: a point over the cluster's
-    /// band starts a new one (a higher surface), one under it is not on top.
+    /// Adds `n` points of mean `z` and highest `z_hi` to the top cluster:
+    /// points over the cluster's band start a new one (a higher surface)
+    /// and the old one, up to the patch's `max` so far, is under it; points
+    /// under the band are under it too. Call before updating `max`.
     #[inline(always)]
-    fn add_top(&mut self, z: f32, n: u16) {
+    fn add_top(&mut self, z: f32, z_hi: f32, n: u16) {
         if z > self.top + TOP_BAND_M {
+            self.under = self.under.max(self.max);
             self.top = z;
             self.top_count = n;
         } else if z >= self.top - TOP_BAND_M {
             let total = self.top_count.saturating_add(n);
             self.top += (z - self.top) * (n as f32 / total as f32);
             self.top_count = total;
+        } else {
+            self.under = self.under.max(z_hi);
         }
     }
 
@@ -102,7 +134,7 @@ impl Patch {
 
     /// Kalman update of the mean with a measurement `z` of variance `var`.
     #[inline(always)]
-    fn add(&mut self, z: f32, var: f32) {
+    fn add(&mut self, z: f32, var: f32, from_above: bool) {
         let s = self.variance + var;
         // s > 0 unless both variances are zero: then plain averaging.
         let k = if s > 0.0 {
@@ -112,6 +144,8 @@ impl Patch {
         };
         self.mean += k * (z - self.mean);
         self.variance -= k * self.variance;
+        self.add_top(z, z, 1);
+        self.seen_from_above |= from_above;
         // Heights are finite: plain comparisons (no NaN handling).
         if z < self.min {
             self.min = z;
@@ -119,7 +153,6 @@ impl Patch {
         if z > self.max {
             self.max = z;
         }
-        self.add_top(z, 1);
         self.count = self.count.saturating_add(1);
     }
 
@@ -133,10 +166,12 @@ impl Patch {
         };
         self.mean += k * (other.mean - self.mean);
         self.variance -= k * self.variance;
+        self.under = self.under.max(other.under);
+        self.add_top(other.top, other.max, other.top_count);
+        self.seen_from_above |= other.seen_from_above;
         self.min = self.min.min(other.min);
         self.max = self.max.max(other.max);
         self.count = self.count.saturating_add(other.count);
-        self.add_top(other.top, other.top_count);
         if other.kind == PatchKind::Vertical {
             self.kind = PatchKind::Vertical;
         }
@@ -171,6 +206,7 @@ pub(crate) fn insert(
     patches: &mut [Patch],
     len: &mut usize,
     z: f32,
+    from_above: bool,
     rule: &CellRule,
 ) -> CellUpdate {
     let n = (*len).min(patches.len());
@@ -186,10 +222,10 @@ pub(crate) fn insert(
         }
     }
     if best == usize::MAX {
-        return add_level(patches, len, z, rule);
+        return add_level(patches, len, z, from_above, rule);
     }
     let p = &mut patches[best];
-    p.add(z, rule.point_variance);
+    p.add(z, rule.point_variance, from_above);
     if p.extent() > rule.vertical_threshold {
         p.kind = PatchKind::Vertical;
     }
@@ -206,7 +242,13 @@ pub(crate) fn insert(
 
 /// A new patch of `z` in its place by height, or `Full`.
 #[inline(never)]
-fn add_level(patches: &mut [Patch], len: &mut usize, z: f32, rule: &CellRule) -> CellUpdate {
+fn add_level(
+    patches: &mut [Patch],
+    len: &mut usize,
+    z: f32,
+    from_above: bool,
+    rule: &CellRule,
+) -> CellUpdate {
     let n = (*len).min(patches.len());
     if n == patches.len() {
         return CellUpdate::Full;
@@ -218,7 +260,7 @@ fn add_level(patches: &mut [Patch], len: &mut usize, z: f32, rule: &CellRule) ->
         patches[i] = patches[i - 1];
         i -= 1;
     }
-    patches[insert_at] = Patch::new(z, rule.point_variance);
+    patches[insert_at] = Patch::new(z, rule.point_variance, from_above);
     *len = n + 1;
     CellUpdate::Added
 }
@@ -250,9 +292,11 @@ fn merge_around(patches: &mut [Patch], len: &mut usize, mut i: usize, rule: &Cel
 }
 
 /// The ground height of `cell` nearest `z` within `tol` (the lower on a
-/// tie): a horizontal patch's mean, or a vertical one's top.
+/// tie): see [`Patch::ground`]; an underside under `z` is not ground
+/// ([`Patch::underside_for`]).
 pub fn ground_near(cell: &[Patch], z: f32, tol: f32) -> Option<f32> {
     cell.iter()
+        .filter(|q| !q.underside_for(z))
         .map(Patch::ground)
         .filter(|g| (g - z).abs() <= tol)
         .min_by(|a, b| (a - z).abs().total_cmp(&(b - z).abs()))
@@ -275,7 +319,7 @@ mod tests {
 
     fn offer(patches: &mut [Patch], len: &mut usize, zs: &[f32]) {
         for &z in zs {
-            insert(patches, len, z, &RULE);
+            insert(patches, len, z, true, &RULE);
         }
     }
 
@@ -334,12 +378,25 @@ mod tests {
         offer(&mut p, &mut n, &[1.0, 0.5, 0.8]);
         assert_eq!(n, 1, "{:?}", &p[..n]);
         assert_eq!(p[0].ground(), 1.0);
-        // A horizontal patch stands at its mean.
+        // A horizontal patch stands at its mean...
         let mut p = [Patch::default(); 4];
         let mut n = 0;
         offer(&mut p, &mut n, &[0.0, 0.1]);
         assert!((p[0].ground() - 0.05).abs() < 1e-6);
         assert!((p[0].top - 0.05).abs() < 1e-6);
+        // ...and so does a rock's: its flanks fill the height under its top.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        offer(&mut p, &mut n, &[0.0, 0.05, 0.1, 0.15, 0.2, 0.2, 0.2]);
+        assert_eq!(p[0].kind, PatchKind::Horizontal);
+        assert_eq!(p[0].ground(), p[0].mean);
+        // A thin slab (0.2 m, under the vertical threshold) seen mostly
+        // from below stands at its top.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        offer(&mut p, &mut n, &[0.8, 0.81, 0.79, 0.8, 1.0, 0.8, 1.01]);
+        assert_eq!(p[0].kind, PatchKind::Horizontal);
+        assert!((p[0].ground() - 1.005).abs() < 1e-3, "{:?}", p[0]);
     }
 
     /// The update as first written (branching distance, fusion tried on
@@ -374,7 +431,7 @@ mod tests {
         }
         if best != usize::MAX {
             let p = &mut patches[best];
-            p.add(z, rule.point_variance);
+            p.add(z, rule.point_variance, true);
             if p.extent() > rule.vertical_threshold {
                 p.kind = PatchKind::Vertical;
             }
@@ -385,7 +442,7 @@ mod tests {
             return CellUpdate::Full;
         }
         patches.copy_within(insert_at..n, insert_at + 1);
-        patches[insert_at] = Patch::new(z, rule.point_variance);
+        patches[insert_at] = Patch::new(z, rule.point_variance, true);
         *len = n + 1;
         CellUpdate::Added
     }
@@ -416,7 +473,7 @@ mod tests {
                         2 => 0.0,
                         _ => (u * 16.0).floor() * 0.3 + 0.15,
                     };
-                    let ra = insert(&mut a[..cap], &mut na, z, &RULE);
+                    let ra = insert(&mut a[..cap], &mut na, z, true, &RULE);
                     let rb = reference_insert(&mut b[..cap], &mut nb, z, &RULE);
                     assert_eq!(ra, rb, "cap {cap} round {round} k {k} z {z}");
                     assert_eq!(na, nb);
@@ -440,16 +497,19 @@ mod tests {
     fn a_full_cell_refuses_a_new_level() {
         let mut p = [Patch::default(); 2];
         let mut n = 0;
-        assert_eq!(insert(&mut p, &mut n, 0.0, &RULE), CellUpdate::Added);
-        assert_eq!(insert(&mut p, &mut n, 5.0, &RULE), CellUpdate::Added);
-        assert_eq!(insert(&mut p, &mut n, 2.0, &RULE), CellUpdate::Full);
+        assert_eq!(insert(&mut p, &mut n, 0.0, true, &RULE), CellUpdate::Added);
+        assert_eq!(insert(&mut p, &mut n, 5.0, true, &RULE), CellUpdate::Added);
+        assert_eq!(insert(&mut p, &mut n, 2.0, true, &RULE), CellUpdate::Full);
         assert_eq!(
-            insert(&mut p, &mut n, 5.1, &RULE),
+            insert(&mut p, &mut n, 5.1, true, &RULE),
             CellUpdate::Updated { merged: 0 }
         );
         assert_eq!(n, 2);
         let mut none: [Patch; 0] = [];
         let mut zero = 0;
-        assert_eq!(insert(&mut none, &mut zero, 0.0, &RULE), CellUpdate::Full);
+        assert_eq!(
+            insert(&mut none, &mut zero, 0.0, true, &RULE),
+            CellUpdate::Full
+        );
     }
 }
