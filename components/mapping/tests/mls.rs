@@ -445,7 +445,10 @@ fn a_slab_seen_only_from_below_is_an_underside_until_seen_from_above() {
     m.insert_points_seen_from(&[[0.05, 0.05, 1.0], [0.05, 0.05, 1.01]], 1.5);
     let p = m.cell(0, 0)[0];
     assert!(p.seen_from_above && !p.underside_for(1.0));
-    assert!((p.ground() - 1.005).abs() < 1e-3, "{p:?}");
+    assert!(
+        p.ground().is_some_and(|g| (g - 1.005).abs() < 1e-3),
+        "{p:?}"
+    );
     // Points of a sensor unknown count as seen from above.
     let mut m = map(MlsParams::default());
     m.insert_points(&under);

@@ -81,16 +81,20 @@ impl Patch {
         !self.seen_from_above && self.max < z - TOP_BAND_M
     }
 
-    /// The height one would stand at on this patch: the top of a vertical
-    /// one, or of a horizontal one whose top lies [`SLAB_GAP_M`] clear of
-    /// its other points (a slab seen from both sides whose underside
-    /// outnumbers its top); else the mean.
-    pub fn ground(&self) -> f32 {
+    /// The height one would stand at on this patch, if any: the top of a
+    /// slab (a top cluster [`SLAB_GAP_M`] clear of the points under it,
+    /// such as a ramp seen from above and below, whose underside may
+    /// outnumber its top), else a horizontal patch's mean. A vertical
+    /// patch whose points fill its height (a wall, a rock, a ledge's face)
+    /// is no ground.
+    pub fn ground(&self) -> Option<f32> {
         let slab = self.under > f32::MIN && self.top - self.under > SLAB_GAP_M;
-        if self.kind == PatchKind::Vertical || slab {
-            self.top
+        if slab {
+            Some(self.top)
+        } else if self.kind == PatchKind::Horizontal {
+            Some(self.mean)
         } else {
-            self.mean
+            None
         }
     }
 
@@ -297,7 +301,7 @@ fn merge_around(patches: &mut [Patch], len: &mut usize, mut i: usize, rule: &Cel
 pub fn ground_near(cell: &[Patch], z: f32, tol: f32) -> Option<f32> {
     cell.iter()
         .filter(|q| !q.underside_for(z))
-        .map(Patch::ground)
+        .filter_map(Patch::ground)
         .filter(|g| (g - z).abs() <= tol)
         .min_by(|a, b| (a - z).abs().total_cmp(&(b - z).abs()))
 }
@@ -367,7 +371,11 @@ mod tests {
             offer(&mut p, &mut n, then);
             assert_eq!(n, 1);
             assert_eq!(p[0].kind, PatchKind::Vertical);
-            assert!((p[0].ground() - 1.0).abs() < 0.01, "{:?}", p[0]);
+            assert!(
+                p[0].ground().is_some_and(|g| (g - 1.0).abs() < 0.01),
+                "{:?}",
+                p[0]
+            );
             assert_eq!(p[0].top_count, 5);
             assert_eq!(ground_near(&p[..n], 0.95, 0.1), Some(p[0].top));
             assert_eq!(ground_near(&p[..n], 0.75, 0.1), None);
@@ -377,26 +385,37 @@ mod tests {
         let mut n = 0;
         offer(&mut p, &mut n, &[1.0, 0.5, 0.8]);
         assert_eq!(n, 1, "{:?}", &p[..n]);
-        assert_eq!(p[0].ground(), 1.0);
+        assert_eq!(p[0].ground(), Some(1.0));
         // A horizontal patch stands at its mean...
         let mut p = [Patch::default(); 4];
         let mut n = 0;
         offer(&mut p, &mut n, &[0.0, 0.1]);
-        assert!((p[0].ground() - 0.05).abs() < 1e-6);
+        assert!(p[0].ground().is_some_and(|g| (g - 0.05).abs() < 1e-6));
         assert!((p[0].top - 0.05).abs() < 1e-6);
         // ...and so does a rock's: its flanks fill the height under its top.
         let mut p = [Patch::default(); 4];
         let mut n = 0;
         offer(&mut p, &mut n, &[0.0, 0.05, 0.1, 0.15, 0.2, 0.2, 0.2]);
         assert_eq!(p[0].kind, PatchKind::Horizontal);
-        assert_eq!(p[0].ground(), p[0].mean);
+        assert_eq!(p[0].ground(), Some(p[0].mean));
+        // A tall rock or a wall, its points filling its height: no ground.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        let wall: Vec<f32> = (0..=20).map(|k| k as f32 * 0.05).collect();
+        offer(&mut p, &mut n, &wall);
+        assert_eq!(p[0].kind, PatchKind::Vertical);
+        assert_eq!(p[0].ground(), None);
         // A thin slab (0.2 m, under the vertical threshold) seen mostly
         // from below stands at its top.
         let mut p = [Patch::default(); 4];
         let mut n = 0;
         offer(&mut p, &mut n, &[0.8, 0.81, 0.79, 0.8, 1.0, 0.8, 1.01]);
         assert_eq!(p[0].kind, PatchKind::Horizontal);
-        assert!((p[0].ground() - 1.005).abs() < 1e-3, "{:?}", p[0]);
+        assert!(
+            p[0].ground().is_some_and(|g| (g - 1.005).abs() < 1e-3),
+            "{:?}",
+            p[0]
+        );
     }
 
     /// The update as first written (branching distance, fusion tried on
