@@ -28,6 +28,12 @@ use crate::plane;
 
 /// No node.
 pub const NONE: u32 = u32::MAX;
+/// Tall cells in a row that growth crosses on their tops (see
+/// `TravMap::top_of_tall`). A crack in the floor this wide (0.3 m at
+/// 0.1 m cells) looks the same and is crossed too: less than the
+/// leg-wheels' 0.38 m diameter.
+const TALL_CELLS: i32 = 3;
+
 /// The 8 neighbours, counter-clockwise from +x.
 pub const NEIGHBOURS: [(i32, i32); 8] = [
     (1, 0),
@@ -342,8 +348,14 @@ impl TravMap {
             let cell = mls.cell(jx, jy);
             let z = match ground_near(cell, n.patch_z, self.params.max_step_m) {
                 Some(z) => z,
-                // A wall or a drop seen there: no link.
-                None if occupied_near(cell, n.patch_z, &self.params) => continue,
+                // A wall or a drop seen there: no link, unless it is ground
+                // with more seen beneath it.
+                None if occupied_near(cell, n.patch_z, &self.params) => {
+                    match self.top_of_tall(mls, &n, (*dx, *dy)) {
+                        Some(z) => z,
+                        None => continue,
+                    }
+                }
                 // Nothing seen: bridged if ground lies a little further on.
                 None => match self.bridge(mls, &n, (*dx, *dy)) {
                     Some(z) => z,
@@ -394,6 +406,32 @@ impl TravMap {
             if occupied_near(cell, n.patch_z, &self.params) {
                 return None;
             }
+        }
+        None
+    }
+
+    /// The height for the cell next to `n` in direction `d` when its one
+    /// tall patch is ground at `n`'s height with more seen beneath it: the
+    /// low end of a ramp's slab where the floor shows under it, which the
+    /// MLS merges into one patch (the two lie within its gap). Its top,
+    /// when that is within a step of `n` and ground carries on within a
+    /// step a cell from it, after at most [`TALL_CELLS`] such cells; a
+    /// ledge's rim has nothing beyond at its height and stays a wall.
+    fn top_of_tall(&self, mls: &MlsMap, n: &Node, d: (i32, i32)) -> Option<f32> {
+        let step = self.params.max_step_m;
+        let tall_top = |k: i32, z: f32| {
+            mls.cell(n.ix + k * d.0, n.iy + k * d.1)
+                .iter()
+                .find(|q| q.kind == PatchKind::Vertical && (q.max - z).abs() <= step)
+                .map(|q| q.max)
+        };
+        let first = tall_top(1, n.patch_z)?;
+        let mut z = first;
+        for k in 2..=TALL_CELLS + 1 {
+            if ground_near(mls.cell(n.ix + k * d.0, n.iy + k * d.1), z, step).is_some() {
+                return Some(first);
+            }
+            z = tall_top(k, z)?;
         }
         None
     }
