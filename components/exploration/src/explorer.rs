@@ -186,7 +186,7 @@ impl Explorer {
     /// near).
     pub fn home_goals(
         &self,
-        at: [f64; 2],
+        at: [f64; 3],
         ahead_m: f64,
         nearest_m: f64,
         out: &mut impl FnMut([f64; 3]),
@@ -223,7 +223,7 @@ mod tests {
         }
         assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
         let mut goals = Vec::new();
-        e.home_goals([19.0, 0.0], 8.0, 2.0, &mut |g| goals.push(g));
+        e.home_goals([19.0, 0.0, 0.2], 8.0, 2.0, &mut |g| goals.push(g));
         assert_eq!(goals.len(), 7);
         // From the earliest track point within 2 m (x = 17), 8 m back.
         assert!((goals[0][0] - 9.0).abs() < 1e-9, "{goals:?}");

@@ -54,17 +54,19 @@ impl Trail {
         self.points.push(p);
     }
 
-    /// The earliest point within `reach_m` of `at` (the nearest when none
-    /// is that near).
-    pub fn earliest_near(&self, at: [f64; 2], reach_m: f64) -> Option<usize> {
-        let d = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
+    /// The earliest point within `reach_m` of `at` across and within
+    /// [`LEVEL_M`] of its height (the nearest in space when none is that
+    /// near): on a level over the track, the track below is not near.
+    pub fn earliest_near(&self, at: [f64; 3], reach_m: f64) -> Option<usize> {
+        let across = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
+        let dist = |p: &[f64; 3]| across(p).hypot(p[2] - at[2]);
         self.points
             .iter()
-            .position(|p| d(p) <= reach_m)
+            .position(|p| across(p) <= reach_m && (p[2] - at[2]).abs() <= LEVEL_M)
             .or_else(|| {
                 (0..self.points.len()).min_by(|&a, &b| {
-                    d(&self.points[a])
-                        .total_cmp(&d(&self.points[b]))
+                    dist(&self.points[a])
+                        .total_cmp(&dist(&self.points[b]))
                         .then(a.cmp(&b))
                 })
             })
@@ -93,6 +95,10 @@ impl Trail {
     }
 }
 
+/// Track points more than this over or under the rover are on another
+/// level (a garage's floor under its deck), m.
+pub const LEVEL_M: f64 = 1.0;
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -107,7 +113,7 @@ mod tests {
         for k in 0..=5 {
             t.record([10.0 - k as f64, 3.0, 0.0]);
         }
-        let from = t.earliest_near([5.0, 2.5], 2.6).expect("near");
+        let from = t.earliest_near([5.0, 2.5, 0.0], 2.6).expect("near");
         assert_eq!(t.points()[from], [5.0, 0.0, 0.0]);
         let g = t.back_from(from, 2.5).expect("goal");
         assert!((g[0] - 2.5).abs() < 1e-9 && g[1] == 0.0, "{g:?}");
@@ -123,5 +129,24 @@ mod tests {
         assert!(t.points().len() <= 8);
         assert_eq!(t.points()[0], [0.0, 0.0, 0.0]);
         assert!(t.points().last().is_some_and(|p| p[0] >= 32.0));
+    }
+
+    #[test]
+    fn the_track_on_the_level_below_is_not_near() {
+        let mut t = Trail::new(1000, 1.0);
+        // Along level 0, up a ramp to 3 m, back over the start on level 1.
+        for k in 0..=10 {
+            t.record([k as f64, 0.0, 0.0]);
+        }
+        for k in 1..=12 {
+            t.record([10.0, k as f64, 0.25 * k as f64]);
+        }
+        for k in 1..=10 {
+            t.record([10.0 - k as f64, 12.0, 3.0]);
+        }
+        let over_start = t.earliest_near([0.0, 12.0, 3.0], 2.0).expect("near");
+        assert_eq!(t.points()[over_start][2], 3.0);
+        // On level 0 the earliest point is the start.
+        assert_eq!(t.earliest_near([0.5, 0.0, 0.0], 2.0), Some(0));
     }
 }

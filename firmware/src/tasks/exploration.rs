@@ -178,7 +178,7 @@ impl Exploration {
             return;
         };
         let trail = self.explorer.trail().points();
-        let Some(from) = self.explorer.trail().earliest_near([pose[0], pose[1]], 2.0) else {
+        let Some(from) = self.explorer.trail().earliest_near(pose, 2.0) else {
             return;
         };
         let mut msg = PlanMsg {

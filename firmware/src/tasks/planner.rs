@@ -308,7 +308,7 @@ impl PlannerTask {
             if matches!(ex.mode(), Mode::Returning(_)) {
                 let q = &mut self.query;
                 ex.explorer.home_goals(
-                    [pose.position[0], pose.position[1]],
+                    pose.position,
                     self.goal_ahead_m,
                     GOAL_NEAREST_M,
                     &mut |g| {

@@ -54,8 +54,6 @@ pub struct Patch {
     /// top was not seen: under a height where one stands, it is neither
     /// ground nor a drop (see [`Patch::underside_for`]).
     pub seen_from_above: bool,
-    /// Some point of it was seen from a sensor under it.
-    pub seen_from_below: bool,
 }
 
 impl Patch {
@@ -72,7 +70,6 @@ impl Patch {
             top_count: 1,
             kind: PatchKind::Horizontal,
             seen_from_above: from_above,
-            seen_from_below: !from_above,
         }
     }
 
@@ -84,20 +81,20 @@ impl Patch {
         !self.seen_from_above && self.max < z - TOP_BAND_M
     }
 
-    /// The height one would stand at on this patch, if any: the top of a
-    /// slab (a top cluster [`SLAB_GAP_M`] clear of the points under it,
-    /// such as a ramp seen from above and below, whose underside may
-    /// outnumber its top), else a horizontal patch's mean. A horizontal
-    /// patch is a slab only if some of it was seen from below: a wall's
-    /// foot under an overhang, seen from above, looks the same. A tall
-    /// patch whose points fill its height (a wall, a rock, a ledge's face)
-    /// is no ground.
+    /// The height one would stand at on this patch, if any: a horizontal
+    /// patch's mean, or the top of a tall one that is a slab (its top
+    /// cluster [`SLAB_GAP_M`] clear of the points under it, such as a ramp
+    /// seen from above and below, whose underside may outnumber its top).
+    /// A tall patch whose points fill its height (a wall, a rock, a ledge's
+    /// face) is no ground. A thin slab, under the vertical threshold,
+    /// stands at its mean: its top cannot be told from a wall's foot under
+    /// an overhang, and reading those as ground narrowed the lava tube's
+    /// squeeze until the mission ended there.
     pub fn ground(&self) -> Option<f32> {
-        let clear = self.under > f32::MIN && self.top - self.under > SLAB_GAP_M;
+        let slab = self.under > f32::MIN && self.top - self.under > SLAB_GAP_M;
         match self.kind {
-            PatchKind::Horizontal if clear && self.seen_from_below => Some(self.top),
             PatchKind::Horizontal => Some(self.mean),
-            PatchKind::Vertical if clear => Some(self.top),
+            PatchKind::Vertical if slab => Some(self.top),
             PatchKind::Vertical => None,
         }
     }
@@ -154,7 +151,6 @@ impl Patch {
         self.variance -= k * self.variance;
         self.add_top(z, z, 1);
         self.seen_from_above |= from_above;
-        self.seen_from_below |= !from_above;
         // Heights are finite: plain comparisons (no NaN handling).
         if z < self.min {
             self.min = z;
@@ -178,7 +174,6 @@ impl Patch {
         self.under = self.under.max(other.under);
         self.add_top(other.top, other.max, other.top_count);
         self.seen_from_above |= other.seen_from_above;
-        self.seen_from_below |= other.seen_from_below;
         self.min = self.min.min(other.min);
         self.max = self.max.max(other.max);
         self.count = self.count.saturating_add(other.count);
@@ -411,24 +406,14 @@ mod tests {
         offer(&mut p, &mut n, &wall);
         assert_eq!(p[0].kind, PatchKind::Vertical);
         assert_eq!(p[0].ground(), None);
-        // A thin slab (0.2 m, under the vertical threshold) seen from above
-        // only stands at its mean: a wall's foot under an overhang looks
-        // the same; with its underside seen from below, at its top.
-        for (under_from_above, ground) in [(true, 0.8), (false, 1.005)] {
-            let mut p = [Patch::default(); 4];
-            let mut n = 0;
-            for z in [0.8, 0.81, 0.79, 0.8, 1.0, 0.8, 1.01] {
-                insert(&mut p, &mut n, z, z > 0.9 || under_from_above, &RULE);
-            }
-            assert_eq!(p[0].kind, PatchKind::Horizontal);
-            assert!((p[0].top - 1.005).abs() < 1e-3, "{:?}", p[0]);
-            let g = if under_from_above { p[0].mean } else { ground };
-            assert!(
-                p[0].ground().is_some_and(|x| (x - g).abs() < 1e-3),
-                "{:?}",
-                p[0]
-            );
-        }
+        // A thin slab (0.2 m, under the vertical threshold) stands at its
+        // mean, whatever its top cluster.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        offer(&mut p, &mut n, &[0.8, 0.81, 0.79, 0.8, 1.0, 0.8, 1.01]);
+        assert_eq!(p[0].kind, PatchKind::Horizontal);
+        assert!((p[0].top - 1.005).abs() < 1e-3, "{:?}", p[0]);
+        assert_eq!(p[0].ground(), Some(p[0].mean));
     }
 
     /// The update as first written (branching distance, fusion tried on
