@@ -8,9 +8,9 @@ pub enum PatchKind {
     #[default]
     Horizontal,
     /// A wall, or any surface whose points span more height than
-    /// `vertical_threshold_m` within the cell. Its `top` is ground only
-    /// where ground beside it meets it (a slab seen from above and below,
-    /// the rim of a ledge); elsewhere it is an obstacle.
+    /// `vertical_threshold_m` within the cell: an obstacle, unless it is a
+    /// slab seen from above and below, whose top is ground
+    /// ([`Patch::ground`]).
     Vertical,
 }
 
