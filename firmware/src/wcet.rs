@@ -43,8 +43,11 @@ fn route(c: &mut Config) {
     c.exploration.enabled = false;
 }
 
+/// Exploring without the internal simulator: the planner's queries come
+/// back to back (the `validate` scenario has the simulator).
 fn explore(c: &mut Config) {
     c.exploration.enabled = true;
+    c.simulator.enabled = false;
 }
 
 fn explore_and_validate(c: &mut Config) {

@@ -15,7 +15,10 @@ pub struct ExplorerParams {
     pub coverage_resolution_m: f64,
     /// Side of the coverage map's square around the start, m.
     pub coverage_extent_m: f64,
-    /// Exploring ends after this long, s (the return follows).
+    /// Exploring ends after this long, s (the return follows). The
+    /// default leaves the mission's default 7200 s half an hour to come
+    /// home; each plan's validation in the internal simulator takes
+    /// mission time too.
     pub time_limit_s: f64,
     /// ... or when this many queries in a row found nothing to explore
     /// (the maps change between them).
@@ -36,7 +39,7 @@ impl Default for ExplorerParams {
             coverage_radius_m: 3.0,
             coverage_resolution_m: 0.25,
             coverage_extent_m: 600.0,
-            time_limit_s: 3000.0,
+            time_limit_s: 5400.0,
             empty_queries_to_return: 3,
             home_tolerance_m: 0.25,
             trail_points: 4096,

@@ -117,7 +117,7 @@ fn main() {
         plan[0][3],
     ];
     let mut sim = InternalSim::new(p.clone()).expect("simulator");
-    let (mut clear, mut integrate) = (Vec::new(), Vec::new());
+    let (mut clear, mut integrate, mut base) = (Vec::new(), Vec::new(), Vec::new());
     let (mut tiles, mut physics) = (Vec::new(), Vec::new());
     let mut whole = Vec::new();
     let mut verdict = None;
@@ -132,6 +132,7 @@ fn main() {
             match work {
                 "clear" => clear.push(us),
                 "integrate" => integrate.push(us),
+                "base" => base.push(us),
                 "ground" => tiles.push(us),
                 "drive" => physics.push(us),
                 _ => {}
@@ -165,6 +166,11 @@ fn main() {
         integrate.len() / 5,
         median(&mut integrate),
         quantile(&mut integrate, 0.999)
+    );
+    println!(
+        "base:      the rover put down with its pad and strip, median {:.0} us, max {:.0} us",
+        median(&mut base),
+        base[base.len() - 1]
     );
     // The first tile of the first run also builds the collider pipeline's
     // storage: its max is start-up, the p99.9 is what a unit must hold.

@@ -17,6 +17,7 @@
 
 mod params;
 mod prediction;
+mod ribbon;
 mod run;
 mod terrain;
 

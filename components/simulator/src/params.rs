@@ -65,7 +65,7 @@ impl Default for SimulatorParams {
             margin_m: 2.0,
             cloud_range_m: 15.0,
             tile_m: 0.25,
-            dt_s: 0.004,
+            dt_s: 0.01,
             settle_s: 0.5,
             goal_tolerance_m: 0.5,
             time_factor: 2.0,

@@ -6,6 +6,7 @@ use speleo_hal::sim::physics::PhysicsRover;
 use speleo_hal::world::Mesh;
 
 use crate::prediction::Prediction;
+use crate::ribbon;
 use crate::terrain::Terrain;
 use crate::SimulatorParams;
 
@@ -69,6 +70,9 @@ enum Phase {
         k: usize,
         from: usize,
     },
+    /// The rover put down, with the ground the scans miss: a pad under
+    /// it and a strip along the plan.
+    Base,
     /// Meshing tile `tile` into the world.
     Ground {
         tile: usize,
@@ -89,9 +93,9 @@ const UNITS_PER_STEP: usize = 6;
 const TRIANGLES_PER_UNIT: usize = 32;
 const COLLIDERS_PER_UNIT: usize = 32;
 const UNITS_PER_CLEAR: usize = 8;
-/// The ribbon of ground along the plan lies this far under the planner's
-/// ground, m.
-const RIBBON_DROP_M: f32 = 0.03;
+/// The base costs a unit and one more for each of these vertices laid
+/// on the seen ground (a column searched each).
+const VERTICES_PER_UNIT: usize = 24;
 /// The ribbon's width beyond the wheels and length beyond the body, m:
 /// the follower's straying from the path.
 const RIBBON_MARGIN_M: f64 = 0.3;
@@ -100,7 +104,7 @@ const STUCK_TURN_RAD: f64 = 0.3;
 /// The rover is put down this far over its estimated ground, m.
 const DROP_M: f64 = 0.08;
 /// Half the side of the ground pad under the rover at the start, m.
-const FOOTPRINT_PAD_M: f32 = 1.0;
+const FOOTPRINT_PAD_M: f64 = 1.0;
 /// The follower runs at 50 Hz, as the control task does.
 const CONTROL_PERIOD_S: f64 = 0.02;
 const SAMPLE_PERIOD_S: f64 = 0.1;
@@ -210,6 +214,7 @@ impl InternalSim {
         match self.phase {
             Phase::Teardown | Phase::Clear => "clear",
             Phase::Integrate { .. } => "integrate",
+            Phase::Base => "base",
             Phase::Ground { .. } => "ground",
             Phase::Drive => "drive",
             Phase::Idle | Phase::Done => "idle",
@@ -243,7 +248,7 @@ impl InternalSim {
         while left > 0 {
             let cost = match self.phase {
                 Phase::Idle | Phase::Done => return self.verdict,
-                Phase::Teardown | Phase::Integrate { .. } | Phase::Ground { .. } => 1,
+                Phase::Teardown | Phase::Integrate { .. } | Phase::Base | Phase::Ground { .. } => 1,
                 Phase::Clear => UNITS_PER_CLEAR,
                 Phase::Drive => UNITS_PER_STEP,
             };
@@ -260,6 +265,10 @@ impl InternalSim {
                     self.phase = Phase::Integrate { k: 0, from: 0 };
                 }
                 Phase::Integrate { k, from } => self.phase = self.integrate(clouds, k, from),
+                Phase::Base => {
+                    let vertices = self.begin_ground();
+                    left = left.saturating_sub(vertices / VERTICES_PER_UNIT);
+                }
                 Phase::Ground { tile } if tile < self.terrain.tiles && !self.near_plan(tile) => {
                     // Ground the rover cannot reach on this plan.
                     self.phase = Phase::Ground { tile: tile + 1 };
@@ -295,7 +304,7 @@ impl InternalSim {
 
     fn integrate(&mut self, clouds: &impl CloudSource, k: usize, from: usize) -> Phase {
         if k >= clouds.keyframes() {
-            return self.begin_ground();
+            return Phase::Base;
         }
         let next = Phase::Integrate { k: k + 1, from: 0 };
         let Some(origin) = clouds.origin(k) else {
@@ -316,7 +325,9 @@ impl InternalSim {
         }
     }
 
-    fn begin_ground(&mut self) -> Phase {
+    /// Put the rover down with the ground the scans miss; the vertices
+    /// laid on the seen ground (the cost of this step).
+    fn begin_ground(&mut self) -> usize {
         let [x, y, z, yaw] = self.start;
         // Dropped from a little higher than the estimate: legs started
         // inside a floor the TSDF puts a few centimetres higher than the
@@ -326,72 +337,37 @@ impl InternalSim {
             Ok(mut r) => {
                 // The LiDAR cannot see the ground under and around the
                 // rover (its lowest beam meets the ground about a metre
-                // away), but the rover stands there: a pad of ground under
-                // it fills that hole.
-                let h = FOOTPRINT_PAD_M;
-                let z = (ground[2] - DROP_M) as f32;
-                let (x, y) = (x as f32, y as f32);
-                let pad = Mesh {
-                    vertices: vec![
-                        [x - h, y - h, z],
-                        [x + h, y - h, z],
-                        [x + h, y + h, z],
-                        [x - h, y + h, z],
-                    ],
-                    triangles: vec![[0, 1, 2], [0, 2, 3]],
-                    surfaces: vec![Default::default(); 2],
-                };
+                // away), but the rover stands there: a pad fills that
+                // hole, and a strip along the plan the holes the rings
+                // leave and the ground past a frontier goal.
+                let under = [x, y, ground[2] - DROP_M];
+                let pad = ribbon::pad(&self.terrain, under, FOOTPRINT_PAD_M);
+                let strip = self.ribbon(under);
                 let _ = r.add_ground(&pad);
-                let _ = r.add_ground(&self.ribbon());
+                let _ = r.add_ground(&strip);
                 self.rover = Some(Box::new(r));
-                Phase::Ground { tile: 0 }
+                self.phase = Phase::Ground { tile: 0 };
+                pad.vertices.len() + strip.vertices.len()
             }
-            Err(_) => self.finish(Outcome::NoGround),
+            Err(_) => {
+                self.phase = self.finish(Outcome::NoGround);
+                0
+            }
         }
     }
 
-    /// A ribbon of ground along the plan, a little under the height the
-    /// planner found at each pose: the planner's belief where the TSDF has
-    /// nothing. The LiDAR's rings leave gaps in the ground that the planner
-    /// bridges and the TSDF does not fill, and a frontier goal lies where
-    /// the seen ground ends, with the rover's front beyond it. Each pose
-    /// gets its own flat piece, so a step in the plan stays a step (the
-    /// highest piece carries the rover where they overlap); the
-    /// ribbon is as wide as the wheels plus the follower's straying, and
-    /// goes a body's half length beyond both ends of the plan. Where the
-    /// TSDF has ground, it lies above the ribbon and carries the rover.
-    fn ribbon(&self) -> Mesh {
-        let mut m = Mesh::default();
+    /// The strip of ground along the plan: the planner's belief where
+    /// the scans have a hole. As wide as the wheels plus the follower's
+    /// straying, and a body's half length past both ends of the plan
+    /// (the rover's front is past a frontier goal's seen ground).
+    fn ribbon(&self, start_ground: [f64; 3]) -> Mesh {
         let ph = &self.p.physics;
-        let half_w = (0.5 * ph.track_width_m + ph.wheel_radius_m + RIBBON_MARGIN_M) as f32;
-        let beyond = (0.5 * ph.wheelbase_m + ph.wheel_radius_m + RIBBON_MARGIN_M) as f32;
-        let last = self.plan.len().saturating_sub(1);
-        for (i, q) in self.plan.iter().enumerate() {
-            let next = self.plan.get(i + 1).unwrap_or(q);
-            let len = (next[0] - q[0]).hypot(next[1] - q[1]) as f32;
-            let (s, c) = (q[3] as f32).sin_cos();
-            // Along the way to the next pose (its direction, or the heading).
-            let (dx, dy) = if len > 0.1 {
-                ((next[0] - q[0]) as f32 / len, (next[1] - q[1]) as f32 / len)
-            } else {
-                (c, s)
-            };
-            let (px, py) = (-dy, dx);
-            let (x, y, z) = (q[0] as f32, q[1] as f32, q[2] as f32 - RIBBON_DROP_M);
-            // Pieces overlap by their half width, so the outside of a turn
-            // is covered too.
-            let a0 = if i == 0 { -beyond } else { -half_w };
-            let a1 = if i == last { beyond } else { len + half_w };
-            let base = m.vertices.len() as u32;
-            for (u, v) in [(a0, -half_w), (a1, -half_w), (a1, half_w), (a0, half_w)] {
-                m.vertices
-                    .push([x + u * dx + v * px, y + u * dy + v * py, z]);
-            }
-            m.triangles.push([base, base + 1, base + 2]);
-            m.triangles.push([base, base + 2, base + 3]);
-            m.surfaces.extend([speleo_hal::world::Surface::Rock; 2]);
-        }
-        m
+        let half_w = 0.5 * ph.track_width_m + ph.wheel_radius_m + RIBBON_MARGIN_M;
+        let beyond = 0.5 * ph.wheelbase_m + ph.wheel_radius_m + RIBBON_MARGIN_M;
+        let mut path = Vec::with_capacity(self.plan.len() + 1);
+        path.push(start_ground);
+        path.extend(self.plan.iter().map(|q| [q[0], q[1], q[2]]));
+        ribbon::strip(&self.terrain, &path, half_w, beyond)
     }
 
     /// Whether tile `i` lies within the margin of the plan (or the start).

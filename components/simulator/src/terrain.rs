@@ -69,6 +69,32 @@ impl Terrain {
         self.tsdf.integrate(origin, points).integrated
     }
 
+    /// The highest seen ground in the column at `x`, `y` between `top`
+    /// and `bottom`: where the signed distance, walking down, turns from
+    /// free space to behind a surface (interpolated between the voxel
+    /// centres). `None` where the column holds no such crossing: a hole in
+    /// the scans, or inside a rock.
+    pub fn surface_z(&self, x: f64, y: f64, top: f64, bottom: f64) -> Option<f64> {
+        let [vx, vy, mut vz] = self.tsdf.voxel_of([x, y, top]);
+        let end = self.tsdf.voxel_of([x, y, bottom])[2];
+        let mut above: Option<(f64, f32)> = None;
+        while vz >= end {
+            let v = [vx, vy, vz];
+            let seen = self.tsdf.voxel(v).filter(|s| s.weight > 0.0);
+            match (above, seen) {
+                (Some((za, a)), Some(b)) if a > 0.0 && b.tsdf <= 0.0 => {
+                    let zb = self.tsdf.voxel_center(v)[2];
+                    let f = f64::from(a / (a - b.tsdf));
+                    return Some(za + (zb - za) * f);
+                }
+                _ => {}
+            }
+            above = seen.map(|s| (self.tsdf.voxel_center(v)[2], s.tsdf));
+            vz -= 1;
+        }
+        None
+    }
+
     /// Tile `i`'s corners in x and y.
     pub fn tile_bounds(&self, i: usize) -> ([f64; 2], [f64; 2]) {
         let (ix, iy) = ((i % self.nx) as f64, (i / self.nx) as f64);

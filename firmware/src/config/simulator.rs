@@ -8,9 +8,9 @@ use super::{range, ConfigError};
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimulatorConfig {
-    /// Validate each exploration plan in simulation first. Off by default
-    /// for now: on the simulated tube it refuses most plans that the rover
-    /// then drives without trouble (see the simulator's README).
+    /// Validate each exploration plan in simulation first (the default):
+    /// a plan the simulated rover does not drive to its goal is refused
+    /// and the next goal tried. Off: plans are driven as planned.
     pub enabled: bool,
     /// TSDF voxel side, m, and the most 8^3-voxel blocks (4 KiB each).
     pub voxel_m: f64,
@@ -31,7 +31,7 @@ impl Default for SimulatorConfig {
     fn default() -> Self {
         let p = speleo_simulator::SimulatorParams::default();
         SimulatorConfig {
-            enabled: false,
+            enabled: true,
             voxel_m: p.voxel_m,
             max_blocks: p.max_blocks,
             margin_m: p.margin_m,

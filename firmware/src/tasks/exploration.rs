@@ -335,6 +335,12 @@ impl Exploration {
         if cmd.done {
             c.active = false;
             if let Some(e) = rmse_at_equal_times(&c.predicted, &c.executed) {
+                tracing::debug!(
+                    rmse_m = e,
+                    predicted_s = c.predicted.len() as f64 * 0.1,
+                    executed_s = c.executed.len() as f64 * 0.1,
+                    "prediction compared"
+                );
                 if self.prediction_rmse_m.len() < HISTORY {
                     self.prediction_rmse_m.push(e);
                 }

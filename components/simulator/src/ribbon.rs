@@ -1,0 +1,280 @@
+//! Ground the LiDAR did not see but the rover will stand on: a strip along
+//! the plan and a pad under the rover, each vertex laid just under the
+//! seen ground of its column, or at the planner's ground where the scans
+//! left a hole.
+//!
+//! A strip of flat pieces, one per plan pose, floats over the ground it
+//! overlaps wherever the ground slopes (plan poses are primitive ends, up
+//! to a metre apart): on an 11° slope the next pose's piece stood 0.15 m
+//! over the floor behind it, and the legs caught under its edge. Laid on
+//! the seen ground, the strip only fills the holes.
+
+use speleo_hal::world::{Mesh, Surface};
+
+use crate::terrain::Terrain;
+
+/// The strip lies this far under the ground it follows, m: where the
+/// scans have ground, the mesh carries the rover.
+const DROP_M: f64 = 0.03;
+/// Samples along the plan at most this far apart, m.
+const STEP_M: f64 = 0.2;
+/// Vertices across the strip.
+const ACROSS: usize = 5;
+/// The column is searched from this far over the planner's ground down to
+/// this far under it, m: a rock beside the path is found from above, a
+/// drop beside it down to its floor.
+const SEARCH_UP_M: f64 = 0.25;
+const SEARCH_DOWN_M: f64 = 1.0;
+/// A miter at a turn is at most this much wider than the strip.
+const MAX_MITER: f64 = 2.0;
+/// The pad's vertices per side.
+const PAD_SIDE: usize = 9;
+
+/// A sample of the strip's centre line: where, the ground the planner
+/// found there, and the direction across (unit, scaled by the miter).
+struct Sample {
+    at: [f64; 2],
+    z: f64,
+    across: [f64; 2],
+}
+
+/// The strip along `path` (x, y, ground z per point, the rover's start
+/// first), `half_width` each side of it and `beyond` past both ends.
+pub fn strip(terrain: &Terrain, path: &[[f64; 3]], half_width: f64, beyond: f64) -> Mesh {
+    let mut mesh = Mesh::default();
+    let samples = centre_line(path, beyond);
+    for (i, s) in samples.iter().enumerate() {
+        for k in 0..ACROSS {
+            let u = half_width * (2.0 * k as f64 / (ACROSS - 1) as f64 - 1.0);
+            let (x, y) = (s.at[0] + u * s.across[0], s.at[1] + u * s.across[1]);
+            mesh.vertices.push(vertex(terrain, x, y, s.z));
+        }
+        if i > 0 {
+            let (a, b) = (((i - 1) * ACROSS) as u32, (i * ACROSS) as u32);
+            for k in 0..(ACROSS - 1) as u32 {
+                mesh.triangles.push([a + k, b + k, b + k + 1]);
+                mesh.triangles.push([a + k, b + k + 1, a + k + 1]);
+            }
+        }
+    }
+    mesh.surfaces = vec![Surface::Rock; mesh.triangles.len()];
+    mesh
+}
+
+/// A square pad of side `2 * half` around `at` (x, y, ground z): the
+/// ground under the rover, which its lowest beam never sees.
+pub fn pad(terrain: &Terrain, at: [f64; 3], half: f64) -> Mesh {
+    let mut mesh = Mesh::default();
+    let n = PAD_SIDE;
+    for i in 0..n {
+        for j in 0..n {
+            let f = |k: usize| half * (2.0 * k as f64 / (n - 1) as f64 - 1.0);
+            mesh.vertices
+                .push(vertex(terrain, at[0] + f(i), at[1] + f(j), at[2]));
+        }
+    }
+    for i in 0..n - 1 {
+        for j in 0..n - 1 {
+            let a = (i * n + j) as u32;
+            let b = a + n as u32;
+            mesh.triangles.push([a, b, b + 1]);
+            mesh.triangles.push([a, b + 1, a + 1]);
+        }
+    }
+    mesh.surfaces = vec![Surface::Rock; mesh.triangles.len()];
+    mesh
+}
+
+/// A vertex just under the seen ground of its column, or under the
+/// planner's ground `z` where the column holds none.
+fn vertex(terrain: &Terrain, x: f64, y: f64, z: f64) -> [f32; 3] {
+    let ground = terrain
+        .surface_z(x, y, z + SEARCH_UP_M, z - SEARCH_DOWN_M)
+        .unwrap_or(z);
+    [x as f32, y as f32, (ground - DROP_M) as f32]
+}
+
+/// Samples along `path`, at most `STEP_M` apart, with `beyond` more at
+/// both ends; the ground between two points is interpolated.
+fn centre_line(path: &[[f64; 3]], beyond: f64) -> Vec<Sample> {
+    // Points closer than a centimetre add nothing but a degenerate turn.
+    let mut pts: Vec<[f64; 3]> = Vec::with_capacity(path.len() + 2);
+    for p in path {
+        if pts
+            .last()
+            .is_none_or(|q: &[f64; 3]| (p[0] - q[0]).hypot(p[1] - q[1]) > 0.01)
+        {
+            pts.push(*p);
+        }
+    }
+    let Some(&first) = pts.first() else {
+        return Vec::new();
+    };
+    if pts.len() == 1 {
+        // No direction to follow: a square around the point.
+        pts.insert(0, [first[0] - beyond, first[1], first[2]]);
+        pts.push([first[0] + beyond, first[1], first[2]]);
+    } else {
+        let d0 = direction(pts[0], pts[1]);
+        let n = pts.len();
+        let d1 = direction(pts[n - 2], pts[n - 1]);
+        let last = pts[n - 1];
+        pts.insert(
+            0,
+            [
+                first[0] - beyond * d0[0],
+                first[1] - beyond * d0[1],
+                first[2],
+            ],
+        );
+        pts.push([last[0] + beyond * d1[0], last[1] + beyond * d1[1], last[2]]);
+    }
+    let mut out = Vec::new();
+    for i in 0..pts.len() - 1 {
+        let (a, b) = (pts[i], pts[i + 1]);
+        let d = direction(a, b);
+        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let n = (len / STEP_M).ceil().max(1.0) as usize;
+        for s in 0..n {
+            let t = s as f64 / n as f64;
+            let across = if s == 0 && i > 0 {
+                miter(direction(pts[i - 1], a), d)
+            } else {
+                [-d[1], d[0]]
+            };
+            out.push(Sample {
+                at: [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])],
+                z: a[2] + t * (b[2] - a[2]),
+                across,
+            });
+        }
+    }
+    let (a, b) = (pts[pts.len() - 2], pts[pts.len() - 1]);
+    let d = direction(a, b);
+    out.push(Sample {
+        at: [b[0], b[1]],
+        z: b[2],
+        across: [-d[1], d[0]],
+    });
+    out
+}
+
+/// Unit direction from `a` to `b` in x and y.
+fn direction(a: [f64; 3], b: [f64; 3]) -> [f64; 2] {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let l = dx.hypot(dy).max(1e-9);
+    [dx / l, dy / l]
+}
+
+/// The direction across a joint between segments along `d0` and `d1`,
+/// scaled so the strip keeps its width on both; where the path turns
+/// back on itself, across the incoming segment.
+fn miter(d0: [f64; 2], d1: [f64; 2]) -> [f64; 2] {
+    let (sx, sy) = (d0[0] + d1[0], d0[1] + d1[1]);
+    let l = sx.hypot(sy);
+    if l < 1e-3 {
+        return [-d0[1], d0[0]];
+    }
+    let (tx, ty) = (sx / l, sy / l);
+    // cos of half the turn: the across of the bisector is this much
+    // shorter on each segment.
+    let c = (tx * d1[0] + ty * d1[1]).max(1.0 / MAX_MITER);
+    [-ty / c, tx / c]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_straight_path_is_sampled_with_its_ground_interpolated() {
+        let s = centre_line(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.5]], 0.5);
+        // 0.5 m before, 1 m along, 0.5 m after: 3 + 5 + 3 samples and the end.
+        assert_eq!(s.len(), 12, "{}", s.len());
+        assert!((s[0].at[0] + 0.5).abs() < 1e-12);
+        assert!((s[11].at[0] - 1.5).abs() < 1e-12);
+        let mid = s
+            .iter()
+            .find(|q| (q.at[0] - 0.6).abs() < 1e-9)
+            .expect("a sample at 0.6 m");
+        assert!((mid.z - 0.3).abs() < 1e-9, "{}", mid.z);
+        assert!(s.iter().all(|q| q.across == [0.0, 1.0]));
+    }
+
+    #[test]
+    fn a_right_angle_turn_gets_a_mitred_joint() {
+        let s = centre_line(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0]], 0.0);
+        let joint = s
+            .iter()
+            .find(|q| (q.at[0] - 1.0).abs() < 1e-9 && q.at[1].abs() < 1e-9)
+            .expect("a sample at the joint");
+        let l = joint.across[0].hypot(joint.across[1]);
+        assert!((l - 2f64.sqrt()).abs() < 1e-9, "{l}");
+        // Across points to the inside of the left turn: up and to the left.
+        assert!(joint.across[0] < 0.0 && joint.across[1] > 0.0);
+    }
+
+    #[test]
+    fn a_path_that_turns_back_keeps_a_finite_width() {
+        let d = miter([1.0, 0.0], [-1.0, 0.0]);
+        assert_eq!(d, [-0.0, 1.0]);
+    }
+
+    /// Scans of the ground `z(x, y)` from a sensor 1 m over it at the
+    /// origin and at x = 3, every 5 cm over 8 m by 4 m.
+    fn terrain(z: impl Fn(f64, f64) -> f64) -> Terrain {
+        let mut t = Terrain::new(&crate::SimulatorParams::default()).expect("terrain");
+        t.begin([-2.0, -2.0, -1.5], [6.0, 2.0, 2.5]);
+        for ox in [0.0, 3.0] {
+            let mut pts = Vec::new();
+            for i in 0..160 {
+                for j in 0..80 {
+                    let (x, y) = (-2.0 + 0.05 * i as f64, -2.0 + 0.05 * j as f64);
+                    pts.push([x, y, z(x, y)]);
+                }
+            }
+            t.integrate([ox, 0.0, z(ox, 0.0) + 1.0], &mut pts);
+        }
+        t
+    }
+
+    #[test]
+    fn the_strip_lies_under_seen_ground_and_fills_a_hole_at_the_plan() {
+        // An 11° slope up x, and a side slope rising to +y; poses a metre
+        // apart, as primitive ends are.
+        let z = |x: f64, y: f64| 0.2 * x + 0.1 * y;
+        let t = terrain(z);
+        let path: Vec<[f64; 3]> = (0..5).map(|i| [i as f64, 0.0, z(i as f64, 0.0)]).collect();
+        let m = strip(&t, &path, 0.75, 0.75);
+        let mut seen = 0;
+        for v in &m.vertices {
+            let (x, y) = (v[0] as f64, v[1] as f64);
+            let under = z(x, y) - v[2] as f64;
+            // A flat piece per pose stood up to 0.15 m over this ground.
+            assert!(
+                under > 0.0 && under < 0.08,
+                "{v:?}: {under} under the ground"
+            );
+            seen += 1;
+        }
+        assert!(seen > 50, "{seen}");
+        // Where the scans have nothing (past x = 6), the planner's ground.
+        let far = strip(&t, &[[7.0, 0.0, 1.0], [8.0, 0.0, 1.2]], 0.5, 0.0);
+        for v in &far.vertices {
+            let expect = 1.0 + 0.2 * (v[0] as f64 - 7.0) - DROP_M;
+            assert!((v[2] as f64 - expect).abs() < 1e-5, "{v:?}");
+        }
+    }
+
+    #[test]
+    fn the_pad_follows_the_seen_ground_around_the_rover() {
+        let z = |x: f64, _: f64| 0.2 * x;
+        let t = terrain(z);
+        let m = pad(&t, [1.0, 0.0, 0.2], 1.0);
+        assert_eq!(m.vertices.len(), PAD_SIDE * PAD_SIDE);
+        for v in &m.vertices {
+            let under = z(v[0] as f64, 0.0) - v[2] as f64;
+            assert!(under > 0.0 && under < 0.08, "{v:?}: {under}");
+        }
+    }
+}
