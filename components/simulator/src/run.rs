@@ -85,8 +85,8 @@ enum Phase {
 /// `benches/validation_phases.rs` on the short tube: 256 points integrated
 /// (~28 us), a 0.25 m tile meshed and added to the world (~10 us and
 /// ~0.85 us a triangle: median ~46 us, 0.5 ms for the 600 triangles of a
-/// wall), a physics step (~160 us, p99.9 ~400 us), 32 ground colliders
-/// removed (~25 us), the TSDF cleared (~220 us).
+/// wall), a 10 ms physics step (~77 us, p99.9 ~185 us), 32 ground
+/// colliders removed (~25 us), the TSDF cleared (~220 us).
 const POINTS_PER_UNIT: usize = 256;
 const UNITS_PER_STEP: usize = 6;
 /// A tile costs a unit and one more for each of these triangles.
