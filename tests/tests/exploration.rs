@@ -1,5 +1,6 @@
 //! The autonomous mission end to end: the rover explores the 30 m
-//! `short-tube` on its own and comes home. About 330 s of mission time: a
+//! `short-tube` on its own and comes home, every plan first driven in the
+//! internal simulator. About 400 s of mission time: a
 //! few minutes in a release build, far longer in the debug test build, so
 //! it is ignored there and run with
 //! `cargo test --release -p speleo-tests --test exploration -- --ignored`.
