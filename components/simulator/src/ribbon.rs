@@ -43,21 +43,14 @@ struct Sample {
 pub fn strip(terrain: &Terrain, path: &[[f64; 3]], half_width: f64, beyond: f64) -> Mesh {
     let mut mesh = Mesh::default();
     let samples = centre_line(path, beyond);
-    for (i, s) in samples.iter().enumerate() {
+    for s in &samples {
         for k in 0..ACROSS {
             let u = half_width * (2.0 * k as f64 / (ACROSS - 1) as f64 - 1.0);
             let (x, y) = (s.at[0] + u * s.across[0], s.at[1] + u * s.across[1]);
             mesh.vertices.push(vertex(terrain, x, y, s.z));
         }
-        if i > 0 {
-            let (a, b) = (((i - 1) * ACROSS) as u32, (i * ACROSS) as u32);
-            for k in 0..(ACROSS - 1) as u32 {
-                mesh.triangles.push([a + k, b + k, b + k + 1]);
-                mesh.triangles.push([a + k, b + k + 1, a + k + 1]);
-            }
-        }
     }
-    mesh.surfaces = vec![Surface::Rock; mesh.triangles.len()];
+    triangulate_grid(&mut mesh, samples.len(), ACROSS);
     mesh
 }
 
@@ -73,16 +66,22 @@ pub fn pad(terrain: &Terrain, at: [f64; 3], half: f64) -> Mesh {
                 .push(vertex(terrain, at[0] + f(i), at[1] + f(j), at[2]));
         }
     }
-    for i in 0..n - 1 {
-        for j in 0..n - 1 {
-            let a = (i * n + j) as u32;
-            let b = a + n as u32;
+    triangulate_grid(&mut mesh, n, n);
+    mesh
+}
+
+/// Two triangles for each cell of the `rows` x `cols` grid of `mesh`'s
+/// vertices (row after row), all rock.
+fn triangulate_grid(mesh: &mut Mesh, rows: usize, cols: usize) {
+    for i in 1..rows {
+        for j in 0..cols.saturating_sub(1) {
+            let a = ((i - 1) * cols + j) as u32;
+            let b = a + cols as u32;
             mesh.triangles.push([a, b, b + 1]);
             mesh.triangles.push([a, b + 1, a + 1]);
         }
     }
     mesh.surfaces = vec![Surface::Rock; mesh.triangles.len()];
-    mesh
 }
 
 /// A vertex just under the seen ground of its column, or under the
