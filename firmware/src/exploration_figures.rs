@@ -51,6 +51,8 @@ pub struct ExplorationFigures {
     pub resumes: u64,
     /// Stuck stops the rover backed out of; each place became an obstacle.
     pub backed_out: u64,
+    /// Times nothing was left but barred places, which were forgotten once.
+    pub second_looks: u64,
     /// Candidate scans, and those that found nothing.
     pub scans: u64,
     pub scans_empty: u64,
@@ -84,6 +86,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         retraces: e.counters.retraces,
         resumes: e.counters.resumes,
         backed_out: e.counters.backed_out,
+        second_looks: e.counters.second_looks,
         climbed_m: e.climbed_m,
         descended_m: e.descended_m,
         scans: e.counters.scans,
@@ -177,11 +180,19 @@ pub struct InternalSimFigures {
     pub prediction_rmse_m_max: Option<f64>,
     pub physics_steps: u64,
     pub triangles_max: u64,
+    /// On the worker core: the batches, and how much faster than real
+    /// time the simulated rover drove (simulated time over the frames of
+    /// the batches that drove it).
+    pub worker_batches: u64,
+    pub speed_x_real_time: Option<f64>,
 }
 
-pub fn internal_sim(e: &Exploration) -> Option<InternalSimFigures> {
-    e.sim.as_ref()?;
+pub fn internal_sim(e: &Exploration, minor_frame_us: u32) -> Option<InternalSimFigures> {
+    if !e.validates() {
+        return None;
+    }
     let c = &e.counters;
+    let w = e.worker.as_ref();
     let names = ["timeout", "tipped_over", "stuck", "missed", "no_ground"];
     Some(InternalSimFigures {
         validations: c.validations,
@@ -197,6 +208,8 @@ pub fn internal_sim(e: &Exploration) -> Option<InternalSimFigures> {
         comparisons: e.prediction_rmse_m.len(),
         prediction_rmse_m_median: crate::planner_figures::median(&e.prediction_rmse_m),
         prediction_rmse_m_max: e.prediction_rmse_m.iter().copied().reduce(f64::max),
+        worker_batches: w.map_or(0, |w| w.counters.batches),
+        speed_x_real_time: w.and_then(|w| w.speed_x_real_time(minor_frame_us)),
         physics_steps: c.sim_physics_steps,
         triangles_max: c.sim_triangles_max,
     })

@@ -26,6 +26,7 @@ use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
 use crate::slam_figures::{SlamFigures, TruthTrack};
 use crate::tasks::recorder::mode_name;
+use crate::tasks::sim_worker::SimWorker;
 use crate::tasks::{
     control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, maps, odometry,
     planner, recorder, slam,
@@ -234,6 +235,40 @@ fn health_params(cfg: &Config) -> health::HealthParams {
     }
 }
 
+/// The simulator's worker as a task of its own core: a batch a frame at
+/// most, within [`crate::schedule_table::SIM_WORKER_BUDGET_US`].
+fn worker_figures(w: &SimWorker, minor_frame_us: u32) -> TaskFigures {
+    let h = &w.batch_times;
+    let us = |ns: u64| ns as f64 * 1e-3;
+    let budget = crate::schedule_table::SIM_WORKER_BUDGET_US;
+    TaskFigures {
+        name: "sim_worker".into(),
+        period_us: minor_frame_us as u64,
+        budget_us: budget,
+        policy: "wait".into(),
+        runs: h.count(),
+        max_us: us(h.max_ns()),
+        p50_us: us(h.quantile_ns(0.5)),
+        p99_us: us(h.quantile_ns(0.99)),
+        p999_us: us(h.quantile_ns(0.999)),
+        overruns: 0,
+        skipped: 0,
+        // Charged to the planner, whose runs take its batches back.
+        allocations: 0,
+        alloc_bytes_max_run: 0,
+        memory_budget_kib: None,
+    }
+}
+
+/// The planner task's accounting slot (the executive's numbering).
+fn planner_slot() -> u16 {
+    let i = crate::schedule_table::TASKS
+        .iter()
+        .position(|t| *t == "planner")
+        .unwrap_or(0);
+    1 + i as u16
+}
+
 fn base_height_m(cfg: &Config) -> f64 {
     0.9 * cfg.rover.wheel_radius_m
 }
@@ -348,6 +383,7 @@ pub fn run<C: FrameClock>(
     };
     let planner_on = maps_on && cfg.planner.enabled;
     let mut t_plan = build_planner(cfg, planner_on)?;
+    let mut worker_sync = None;
     if planner_on && cfg.exploration.enabled {
         let e = &cfg.exploration;
         let mut ex = crate::tasks::exploration::Exploration::new(
@@ -360,6 +396,16 @@ pub fn run<C: FrameClock>(
             let sim = speleo_simulator::InternalSim::new(simulator_params(cfg))
                 .map_err(MissionError::Planner)?;
             ex = ex.with_simulator(sim, mount_pose(cfg));
+            if cfg.simulator.worker_units > 0 {
+                let w = SimWorker::spawn(
+                    cfg.simulator.worker_units,
+                    cfg.simulator.dt_s,
+                    planner_slot(),
+                )
+                .map_err(|e| MissionError::Planner(format!("the simulator's worker: {e}")))?;
+                worker_sync = Some(w.sync());
+                ex = ex.with_worker(w);
+            }
         }
         t_plan = t_plan.with_exploration(ex);
     }
@@ -471,6 +517,12 @@ pub fn run<C: FrameClock>(
         let next = exec.clock().frame_time_ns(exec.next_frame());
         hw.borrow_mut().advance_to(next);
         accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
+        // The simulator's batch on its own core ends within the frame
+        // before; the virtual clock's frames come back to back, so this
+        // is where a real-time executive would sleep.
+        if let Some(s) = &worker_sync {
+            s.wait_idle();
+        }
         let f = exec.run_frame(&mut bus);
         if bus.safe_mode_request && exec.mode() == Mode::Nominal {
             exec.enter_safe_mode();
@@ -557,7 +609,7 @@ pub fn run<C: FrameClock>(
     if let Some(c) = tap.borrow_mut().comparer_mut() {
         c.finish();
     }
-    let tasks = exec
+    let mut tasks: Vec<TaskFigures> = exec
         .schedule()
         .tasks()
         .iter()
@@ -587,6 +639,9 @@ pub fn run<C: FrameClock>(
     let suppressed_events = exec.suppressed_events();
     // The executive borrows the tasks; release them to read SLAM's result.
     drop(exec);
+    if let Some(w) = t_plan.exploration().and_then(|e| e.worker.as_ref()) {
+        tasks.push(worker_figures(w, minor_frame_us));
+    }
     track.odom_origin = odom_origin.map(|(p, q)| (p, 2.0 * q[3].atan2(q[0])));
     let slam = (t_slam.slam().stats().keyframes > 0).then(|| {
         crate::slam_figures::figures(
@@ -642,7 +697,7 @@ pub fn run<C: FrameClock>(
         exploration_home: t_plan.exploration().map(|e| e.explorer.home()),
         internal_sim: t_plan
             .exploration()
-            .and_then(crate::exploration_figures::internal_sim),
+            .and_then(|e| crate::exploration_figures::internal_sim(e, minor_frame_us)),
         world_from_map: track.odom_origin,
         frames,
         sim_time_s: frames as f64 * minor_frame_us as f64 * 1e-6,

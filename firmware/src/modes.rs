@@ -244,13 +244,15 @@ fn print_summary(r: &MissionResult) {
     }
     if let Some(s) = &r.internal_sim {
         eprintln!(
-            "internal simulation: {} plans driven, {} passed, {} refused, prediction RMSE median {} over {} traverses",
+            "internal simulation: {} plans driven, {} passed, {} refused, prediction RMSE median {} over {} traverses, {} real time",
             s.validations,
             s.validated,
             s.rejected,
             s.prediction_rmse_m_median
                 .map_or("-".to_string(), |v| format!("{v:.3} m")),
-            s.comparisons
+            s.comparisons,
+            s.speed_x_real_time
+                .map_or("-".to_string(), |v| format!("{v:.1}x")),
         );
     }
     if let Some(p) = &r.planner {

@@ -38,6 +38,10 @@ pub const SLAM_MEMORY_BUDGET_KIB: u32 = 8 * 1024;
 /// runs: `speleo wcet --scenario validate` measured 10.6 MiB in a run.
 pub const PLANNER_MEMORY_BUDGET_KIB: u32 = 32 * 1024;
 
+/// The internal simulator's batch on its worker core
+/// (`[simulator] worker_units`): it has the frame, less the hand-overs.
+pub const SIM_WORKER_BUDGET_US: u32 = 8_000;
+
 /// Task names in execution order.
 pub const TASKS: [&str; 12] = [
     "io",

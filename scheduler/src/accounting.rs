@@ -136,6 +136,16 @@ pub fn bytes(slot: usize) -> u64 {
     BYTES.with(|b| b.get(slot).map_or(0, Cell::get))
 }
 
+/// Count, on this thread in its current slot, allocations made on another
+/// thread on its behalf (a [`crate::coprocessor`]'s batch).
+pub fn charge(allocations: u64, bytes: u64) {
+    let slot = CURRENT.with(Cell::get) as usize;
+    if slot < SLOTS {
+        COUNTS.with(|n| n[slot].set(n[slot].get() + allocations));
+        BYTES.with(|b| b[slot].set(b[slot].get() + bytes));
+    }
+}
+
 /// All allocations counted on this thread, every slot.
 pub fn total_allocations() -> u64 {
     COUNTS.with(|n| n.iter().map(Cell::get).sum())

@@ -30,6 +30,8 @@ pub mod task;
 #[cfg(feature = "std")]
 pub mod accounting;
 #[cfg(feature = "std")]
+pub mod coprocessor;
+#[cfg(feature = "std")]
 pub mod realtime;
 
 pub use clock::{FrameClock, Platform, VirtualClock};

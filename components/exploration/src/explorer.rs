@@ -159,6 +159,12 @@ impl Explorer {
         }
     }
 
+    /// Forget the goals rejected so far: they may be tried again.
+    pub fn forget_rejected(&mut self) {
+        self.rejected.clear();
+        self.rejected_flat.clear();
+    }
+
     pub fn rejected(&self) -> &[[f64; 2]] {
         &self.rejected_flat
     }

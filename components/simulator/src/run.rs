@@ -20,6 +20,21 @@ pub trait CloudSource {
     fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool;
 }
 
+/// No clouds: for the steps that do not read them.
+struct NoClouds;
+
+impl CloudSource for NoClouds {
+    fn keyframes(&self) -> usize {
+        0
+    }
+    fn origin(&self, _: usize) -> Option<[f64; 3]> {
+        None
+    }
+    fn points(&self, _: usize, _: usize, _: usize, _: &mut Vec<[f64; 3]>) -> bool {
+        false
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Outcome {
     /// The goal reached within the tolerance and the time.
@@ -243,9 +258,29 @@ impl InternalSim {
     /// but for a tile's triangles, which are known only once it is
     /// meshed); the verdict once there is one.
     pub fn step(&mut self, clouds: &impl CloudSource, units: usize) -> Option<Verdict> {
+        self.advance(Some(clouds), units)
+    }
+
+    /// Whether the next step integrates the keyframe clouds (the one part
+    /// of a validation that reads them).
+    pub fn needs_clouds(&self) -> bool {
+        matches!(self.phase, Phase::Integrate { .. })
+    }
+
+    /// Like [`InternalSim::step`] without the clouds (on a thread that
+    /// cannot read them): stops short, its units unspent, where the
+    /// clouds are integrated ([`InternalSim::needs_clouds`]).
+    pub fn step_without_clouds(&mut self, units: usize) -> Option<Verdict> {
+        self.advance(None::<&NoClouds>, units)
+    }
+
+    fn advance<C: CloudSource>(&mut self, clouds: Option<&C>, units: usize) -> Option<Verdict> {
         let mut left = units.max(1);
         let mut first = true;
         while left > 0 {
+            if clouds.is_none() && self.needs_clouds() {
+                return None;
+            }
             let cost = match self.phase {
                 Phase::Idle | Phase::Done => return self.verdict,
                 Phase::Teardown | Phase::Integrate { .. } | Phase::Base | Phase::Ground { .. } => 1,
@@ -264,7 +299,11 @@ impl InternalSim {
                     self.terrain.begin(self.bounds.0, self.bounds.1);
                     self.phase = Phase::Integrate { k: 0, from: 0 };
                 }
-                Phase::Integrate { k, from } => self.phase = self.integrate(clouds, k, from),
+                Phase::Integrate { k, from } => {
+                    if let Some(c) = clouds {
+                        self.phase = self.integrate(c, k, from);
+                    }
+                }
                 Phase::Base => {
                     let vertices = self.begin_ground();
                     left = left.saturating_sub(vertices / VERTICES_PER_UNIT);

@@ -118,6 +118,36 @@ fn a_validation_does_not_depend_on_its_steps_units_or_the_world_before() {
     assert_eq!(sliced.2.to_bits(), whole.2.to_bits());
 }
 
+/// As a coprocessor drives it: the clouds only where they are read, the
+/// rest in large batches without them.
+#[test]
+fn steps_without_the_clouds_stop_where_they_are_needed_and_change_nothing() {
+    let bumpy = |x: f64| if x > 2.0 { 0.08 } else { 0.0 };
+    let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+    let whole = run(&mut sim, bumpy, plan(bumpy), 14);
+    let scans = Scans::new(bumpy);
+    let p = SimulatorParams::default();
+    sim.begin([0.0, 0.0, p.base_height_m, 0.0], plan(bumpy));
+    let (mut with, mut without) = (0, 0);
+    let v = loop {
+        let v = if sim.needs_clouds() {
+            with += 1;
+            sim.step(&scans, 14)
+        } else {
+            without += 1;
+            sim.step_without_clouds(120)
+        };
+        if let Some(v) = v {
+            break v;
+        }
+        assert!(with + without < 1_000_000, "no verdict");
+    };
+    assert!(with > 0 && without > 0, "{with} {without}");
+    assert_eq!(v.outcome, whole.0);
+    assert_eq!(sim.prediction(), &whole.1[..], "the same prediction");
+    assert_eq!(v.goal_error_m.to_bits(), whole.2.to_bits());
+}
+
 #[test]
 fn flat_ground_is_driven_to_the_goal_the_same_every_time() {
     let flat = |_: f64| 0.0;

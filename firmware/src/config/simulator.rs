@@ -25,6 +25,14 @@ pub struct SimulatorConfig {
     pub tip_over_deg: f64,
     /// Commanded this long without 0.1 m of progress: stuck, s.
     pub stuck_after_s: f64,
+    /// Work units a frame done on a core of its own (a worker thread the
+    /// planner task lends the validation to and takes it back from the
+    /// next frame): everything but the clouds' integration. A physics
+    /// step is 6 units, so the default 120 drives the simulated rover 20
+    /// times faster than real time at 10 ms steps. 0: all the work in the
+    /// planner's own window (`planner.step_units.validate` a frame), for
+    /// a single-core computer.
+    pub worker_units: u32,
 }
 
 impl Default for SimulatorConfig {
@@ -39,6 +47,7 @@ impl Default for SimulatorConfig {
             goal_tolerance_m: p.goal_tolerance_m,
             tip_over_deg: p.tip_over_deg,
             stuck_after_s: p.stuck_after_s,
+            worker_units: 120,
         }
     }
 }
@@ -71,6 +80,7 @@ impl SimulatorConfig {
             120.0,
             "0.5..=120",
         )?;
+        range(&k("worker_units"), self.worker_units, 0, 4096, "0..=4096")?;
         Ok(())
     }
 }

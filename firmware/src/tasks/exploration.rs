@@ -7,6 +7,8 @@
 use speleo_control::StopReason;
 use speleo_exploration::{CandidateParams, CandidateScan, Explorer, ExplorerParams, Mode};
 use speleo_simulator::{rmse_at_equal_times, InternalSim, Outcome, PREDICTION_POINTS};
+
+use crate::tasks::sim_worker::SimWorker;
 use speleo_slam::lie::Pose;
 
 use crate::bus::{Bus, ExplorationPhase, ExplorationStatus, PlanMsg};
@@ -32,6 +34,9 @@ pub struct ExplorationCounters {
     /// Stuck stops after which the rover backed out (straight, backward
     /// or forward) and the place became an obstacle for the planner.
     pub backed_out: u64,
+    /// Times nothing was left but barred places, which were forgotten
+    /// to explore on (once a mission).
+    pub second_looks: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground).
     pub validations: u64,
@@ -81,9 +86,12 @@ pub struct Exploration {
     idle_since: Option<u64>,
     last_observed: [f64; 2],
     pub counters: ExplorationCounters,
-    /// The internal simulator, when plans are validated first; the LiDAR
-    /// mount (base <- sensor) for the keyframe clouds.
-    pub sim: Option<InternalSim>,
+    /// The internal simulator, when plans are validated first (`None`
+    /// while a batch is out on the worker); the LiDAR mount (base <-
+    /// sensor) for the keyframe clouds.
+    pub sim: Option<Box<InternalSim>>,
+    /// The core of its own the simulator does most of its work on.
+    pub worker: Option<SimWorker>,
     pub mount: Pose,
     /// When the validation under way began.
     pub validation_began_ns: u64,
@@ -102,6 +110,10 @@ pub struct Exploration {
     pub no_go: heapless::Deque<[f64; 3], MAX_NO_GO>,
     /// The next retrace backs out of a place the rover was stuck at.
     back_out: bool,
+    /// The plan under way is a back-out.
+    backing_out: bool,
+    /// The second look has been taken (see [`Exploration::second_look`]).
+    second_look_taken: bool,
     /// Back-outs in a row (each stuck too): they alternate direction.
     escape_attempts: u32,
 }
@@ -125,6 +137,7 @@ impl Exploration {
             last_observed: [f64::INFINITY; 2],
             counters: ExplorationCounters::default(),
             sim: None,
+            worker: None,
             mount: Pose::identity(),
             validation_began_ns: 0,
             comparison: Comparison {
@@ -142,6 +155,8 @@ impl Exploration {
             descended_m: 0.0,
             no_go: heapless::Deque::new(),
             back_out: false,
+            backing_out: false,
+            second_look_taken: false,
             escape_attempts: 0,
         }
     }
@@ -173,6 +188,7 @@ impl Exploration {
             self.back_out(bus, now, query);
             return;
         }
+        self.backing_out = false;
         self.counters.retraces += 1;
         let Some(pose) = bus.slam.get().map(|p| p.value.position) else {
             return;
@@ -232,6 +248,7 @@ impl Exploration {
             return;
         };
         self.counters.backed_out += 1;
+        self.backing_out = true;
         let yaw = crate::tasks::control::yaw_of(p.orientation);
         let sign = if self.escape_attempts % 2 == 1 {
             -1.0
@@ -264,9 +281,80 @@ impl Exploration {
     /// Validate every plan in `sim` first, its world made of the keyframe
     /// clouds seen through `mount`.
     pub fn with_simulator(mut self, sim: InternalSim, mount: Pose) -> Self {
-        self.sim = Some(sim);
+        self.sim = Some(Box::new(sim));
         self.mount = mount;
         self
+    }
+
+    /// Do the simulator's work on `worker` (but for the clouds' integration).
+    pub fn with_worker(mut self, worker: SimWorker) -> Self {
+        self.worker = Some(worker);
+        self
+    }
+
+    /// Nothing is left to explore, but places were barred on the way
+    /// (no-go discs where the rover was stuck, goals it was stopped on the
+    /// way to or had no plan to): once a mission, forget them and explore
+    /// on. In a narrow tube one stuck place bars the way on for good, and
+    /// the stop may have been bad luck (a wheel on a rock's flank) more
+    /// than the place. True when the look is taken now.
+    pub fn second_look(&mut self) -> bool {
+        let barred = !self.no_go.is_empty() || !self.explorer.rejected().is_empty();
+        if self.second_look_taken || !barred {
+            return false;
+        }
+        self.second_look_taken = true;
+        self.no_go.clear();
+        self.explorer.forget_rejected();
+        self.explorer.resume();
+        self.counters.second_looks += 1;
+        tracing::debug!("a second look, the barred places forgotten");
+        true
+    }
+
+    /// A query is over. If it drove nothing while a back-out waits (the
+    /// planner was asked first after a stuck back-out), the back-out is
+    /// next.
+    pub fn query_over(&mut self) {
+        if self.back_out {
+            self.stranded = true;
+        }
+    }
+
+    /// The planner's plan `query` is driven: no back-out is due any more.
+    pub fn driving(&mut self, query: u64) {
+        self.executing = query;
+        self.counters.plans_executed += 1;
+        self.back_out = false;
+        self.backing_out = false;
+    }
+
+    /// Whether plans are validated in the internal simulator first.
+    pub fn validates(&self) -> bool {
+        self.sim.is_some() || self.worker.as_ref().is_some_and(SimWorker::is_lent)
+    }
+
+    /// The simulator, taken back from the worker if a batch is out
+    /// (waiting for it to end).
+    pub fn sim_home(&mut self) -> Option<&mut InternalSim> {
+        if let Some(sim) = self.worker.as_mut().and_then(SimWorker::join) {
+            self.sim = Some(sim);
+        }
+        self.sim.as_deref_mut()
+    }
+
+    /// Lend the simulator to the worker for a batch, if there is one and
+    /// the next step does not read the clouds.
+    pub fn sim_lend(&mut self) {
+        let Some(w) = self.worker.as_mut() else {
+            return;
+        };
+        let Some(sim) = self.sim.take() else {
+            return;
+        };
+        if let Err(sim) = w.lend(sim) {
+            self.sim = Some(sim);
+        }
     }
 
     /// The simulator's verdict on the plan under validation, at `now`.
@@ -419,8 +507,15 @@ impl Exploration {
                         }
                         let _ = self.no_go.push_back(p);
                     }
+                    // A back-out stuck too: the planner first, from
+                    // where the rover now stands and with the place
+                    // barred (the way out may need a turn no straight
+                    // back-out makes); the next back-out, the other way,
+                    // only when it finds nothing. Back-outs in a row
+                    // pivoted a wedged rover a little each time and
+                    // could go on for the rest of the mission.
                     self.back_out = true;
-                    self.stranded = true;
+                    self.stranded = !self.backing_out;
                 }
             } else if stop == 0 {
                 self.escape_attempts = 0;

@@ -371,6 +371,9 @@ impl PlannerTask {
         if self.query.solved && self.final_eps_milli.len() < HISTORY {
             self.final_eps_milli.push(self.query.eps_milli);
         }
+        if let Some(ex) = &mut self.explore {
+            ex.query_over();
+        }
         self.phase = Phase::Idle;
     }
 
@@ -502,10 +505,15 @@ impl PlannerTask {
             );
         } else {
             explorer.query_result(found);
+            if explorer.mode() == Mode::Returning(ReturnReason::Explored) && ex.second_look() {
+                // The next query grows its graph without the barred places.
+                self.end_query();
+                return Phase::Idle;
+            }
         }
-        let best = scan.best();
+        let best = ex.scan.best();
         if best.is_empty() {
-            counters.scans_empty += 1;
+            ex.counters.scans_empty += 1;
             ex.no_start();
             self.counters.no_goal += 1;
             self.end_query();
@@ -604,8 +612,7 @@ impl PlannerTask {
         self.counters.plans_published += 1;
         if execute {
             if let Some(ex) = &mut self.explore {
-                ex.executing = msg.query;
-                ex.counters.plans_executed += 1;
+                ex.driving(msg.query);
                 bus.exploration.goal = Some(self.query.order[self.query.tried].1);
             }
         }
@@ -676,13 +683,13 @@ impl PlannerTask {
     /// Exploring, the query's plan is final: drive it, or first drive it in
     /// the internal simulator.
     fn plan_found(&mut self, bus: &mut Bus, now: u64, best: (u32, u32), optimal: bool) {
-        let validate = self.explore.as_ref().is_some_and(|e| e.sim.is_some());
+        let validate = self.explore.as_ref().is_some_and(|e| e.validates());
         // Shown while it is validated; marked to be driven otherwise.
         self.publish(bus, now, best, optimal, !validate);
         let Some(ex) = self.explore.as_deref_mut() else {
             return;
         };
-        let (Some(sim), Some(plan)) = (&mut ex.sim, bus.plan.get()) else {
+        let (Some(sim), Some(plan)) = (ex.sim_home(), bus.plan.get()) else {
             self.end_query();
             return;
         };
@@ -694,26 +701,38 @@ impl PlannerTask {
             .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64, p[3] as f64]);
         sim.begin([x, y, z, self.query.yaw], poses);
         ex.validation_began_ns = now;
+        // The old world's teardown needs no clouds: on the worker already.
+        ex.sim_lend();
         self.query.best = (best, optimal);
         self.phase = Phase::Validate;
     }
 
     /// A slice of the internal simulation; at its verdict, the plan is
-    /// driven or the next goal is tried.
+    /// driven or the next goal is tried. With a worker, the batch it did
+    /// since the last frame is taken back, the clouds' integration done
+    /// here, and the rest lent to it again.
     fn validate(&mut self, bus: &mut Bus, now: u64, units: usize) {
         let Some(ex) = self.explore.as_deref_mut() else {
             self.end_query();
             return;
         };
-        let Some(sim) = &mut ex.sim else {
+        let offloaded = ex.worker.is_some();
+        let mount = ex.mount;
+        let Some(sim) = ex.sim_home() else {
             self.end_query();
             return;
         };
-        let clouds = crate::sim_clouds::MapClouds {
-            clouds: &bus.keyframe_clouds,
-            mount: &ex.mount,
+        let verdict = if !offloaded || sim.needs_clouds() {
+            let clouds = crate::sim_clouds::MapClouds {
+                clouds: &bus.keyframe_clouds,
+                mount: &mount,
+            };
+            sim.step(&clouds, units)
+        } else {
+            sim.verdict()
         };
-        let Some(v) = sim.step(&clouds, units) else {
+        let Some(v) = verdict else {
+            ex.sim_lend();
             return;
         };
         ex.record_verdict(v.outcome, now);
@@ -945,6 +964,8 @@ mod tests {
     use crate::surface_maps::SurfaceMaps;
     use speleo_mapping::mls::MlsParams;
 
+    use crate::tasks::exploration::ExplorationCounters;
+    use crate::tasks::sim_worker::SimWorker;
     use crate::tasks::test_context as cx;
 
     /// A 12 x 4 m floor seen densely, 0.17 m under base_link at (1, 2),
@@ -1142,9 +1163,10 @@ mod tests {
         bus
     }
 
-    #[test]
-    fn a_goal_beyond_a_ledge_the_rover_cannot_climb_is_refused_by_the_simulation_and_another_chosen(
-    ) {
+    /// Exploration before the ledge, plans validated in the simulator (on
+    /// a worker core when `worker_units` > 0) until one is marked to be
+    /// driven: the counters, the plan and the frame it came at.
+    fn ledge_mission(worker_units: u32) -> (ExplorationCounters, PlanMsg, u64) {
         // A planner told the rover steps up to 0.35 m, drawn toward the
         // far side of the ledge.
         let cfg = PlannerConfig {
@@ -1159,35 +1181,71 @@ mod tests {
         };
         let sim = speleo_simulator::InternalSim::new(Default::default())
             .unwrap_or_else(|e| panic!("{e}"));
-        let ex = Exploration::new(
+        let mut ex = Exploration::new(
             e.explorer_params(),
             e.candidate_params(),
             Some([40.0, 2.0]),
             0.0,
         )
         .with_simulator(sim, speleo_slam::lie::Pose::identity());
+        let mut sync = None;
+        if worker_units > 0 {
+            let w = SimWorker::spawn(worker_units, 0.01, 0).unwrap_or_else(|e| panic!("{e}"));
+            sync = Some(w.sync());
+            ex = ex.with_worker(w);
+        }
         let mut t = PlannerTask::new(&cfg, &prims, 0.1, &[], false, 0.17)
             .unwrap_or_else(|e| panic!("{e}"))
             .with_exploration(ex);
         let mut bus = bus_before_a_ledge();
+        let mut frame = 0;
         for f in 0..400_000 {
+            if let Some(s) = &sync {
+                s.wait_idle();
+            }
             t.step(&mut bus, &cx(f), 32);
+            frame = f;
             if bus.plan.get().is_some_and(|p| p.value.execute) {
                 break;
             }
         }
         let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
-        let c = ex.counters;
+        (ex.counters, published(&bus), frame)
+    }
+
+    #[test]
+    fn a_goal_beyond_a_ledge_the_rover_cannot_climb_is_refused_by_the_simulation_and_another_chosen(
+    ) {
+        let (c, plan, _) = ledge_mission(0);
         // The first goal lay up the ledge; the simulated rover failed there.
         assert!(c.rejected_by_sim >= 1, "{c:?}");
         assert_eq!(c.validated, 1, "{c:?}");
         assert_eq!(c.validations, c.rejected_by_sim + 1, "{c:?}");
-        let plan = published(&bus);
         assert!(plan.execute, "{plan:?}");
         // The plan driven stays on the lower floor.
         for p in &plan.poses {
             assert!(p[0] < 9.6, "{p:?} climbs the ledge");
         }
+    }
+
+    #[test]
+    fn on_a_worker_core_the_simulation_gives_the_same_verdicts_sooner_and_the_same_every_time() {
+        let (c0, plan0, frame0) = ledge_mission(0);
+        let (c1, plan1, frame1) = ledge_mission(120);
+        assert_eq!(c1.validations, c0.validations, "{c1:?}");
+        assert_eq!(c1.rejected_by_sim, c0.rejected_by_sim, "{c1:?}");
+        assert_eq!(c1.sim_outcomes, c0.sim_outcomes, "{c1:?}");
+        assert_eq!(c1.sim_physics_steps, c0.sim_physics_steps, "{c1:?}");
+        assert_eq!(plan1.poses, plan0.poses);
+        // Planning frames included; the validations alone are ten times
+        // quicker.
+        assert!(
+            frame1 * 3 < frame0,
+            "{frame1} frames vs {frame0} in the window"
+        );
+        let again = ledge_mission(120);
+        assert_eq!(again.2, frame1, "the verdicts come at the same frames");
+        assert_eq!(again.1.poses, plan1.poses);
     }
 
     /// The far end of the floor as the target, and perhaps a place the
@@ -1236,7 +1294,8 @@ mod tests {
     }
 
     #[test]
-    fn a_stuck_rover_backs_out_a_metre_straight_then_forward_and_remembers_the_place() {
+    fn a_stuck_rover_backs_out_a_metre_straight_then_plans_then_backs_out_forward_and_remembers_the_place(
+    ) {
         use crate::bus::WheelCommand;
         use speleo_control::StopReason;
         let e = crate::config::ExplorationConfig::default();
@@ -1293,6 +1352,11 @@ mod tests {
         );
         assert!(ex.ready(&bus, 4_300_000_000));
         assert_eq!(ex.no_go.len(), 1);
+        // The planner is asked first; only when it finds nothing from here
+        // does the rover back out again.
+        assert!(!ex.retrace_due());
+        ex.query_over();
+        assert!(ex.retrace_due());
         ex.retrace(&mut bus, 4_400_000_000, 10, 8.0);
         let last = *published(&bus)
             .poses

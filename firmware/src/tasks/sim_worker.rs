@@ -1,0 +1,102 @@
+//! The internal simulator on a core of its own: the planner task lends it
+//! the validation under way for one batch of `[simulator] worker_units`
+//! units a frame and takes it back in its next run (see
+//! [`speleo_scheduler::coprocessor`]). Only the TSDF integration of the
+//! keyframe clouds, which the worker cannot read while the other tasks
+//! write them, stays in the planner's own window.
+//!
+//! 120 units a frame are 20 physics steps of 10 ms: the simulated rover
+//! drives 20 times faster than real time, as the paper asks, and the
+//! verdict comes at the same frame on any machine.
+
+use speleo_scheduler::accounting;
+use speleo_scheduler::coprocessor::{Coprocessor, FrameSync};
+use speleo_scheduler::histogram::Histogram;
+use speleo_simulator::InternalSim;
+
+/// What the worker did, for the report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct WorkerCounters {
+    pub batches: u64,
+    /// Batches that drove the simulated rover, and its physics steps in them.
+    pub drive_batches: u64,
+    pub drive_steps: u64,
+}
+
+pub struct SimWorker {
+    cp: Coprocessor<InternalSim>,
+    units: u32,
+    /// The simulator's physics step, s.
+    dt_s: f64,
+    /// Whether the batch out began in the drive phase, and the physics
+    /// steps before it.
+    out: Option<(bool, u64)>,
+    /// Wall time of each batch on the worker.
+    pub batch_times: Histogram,
+    pub counters: WorkerCounters,
+}
+
+fn batch(sim: &mut InternalSim, units: u32) {
+    let _ = sim.step_without_clouds(units as usize);
+}
+
+impl SimWorker {
+    /// Start the worker thread; its allocations are counted as `slot`'s.
+    pub fn spawn(units: u32, dt_s: f64, slot: u16) -> std::io::Result<Self> {
+        Ok(SimWorker {
+            cp: Coprocessor::spawn("speleo-sim", slot, batch)?,
+            units,
+            dt_s,
+            out: None,
+            batch_times: Histogram::new(),
+            counters: WorkerCounters::default(),
+        })
+    }
+
+    /// The handle the frame loop waits on before each frame.
+    pub fn sync(&self) -> FrameSync {
+        self.cp.sync()
+    }
+
+    pub fn is_lent(&self) -> bool {
+        self.cp.is_lent()
+    }
+
+    /// Lend `sim` for a batch, unless its next step reads the clouds:
+    /// then it is given back.
+    pub fn lend(&mut self, sim: Box<InternalSim>) -> Result<(), Box<InternalSim>> {
+        if sim.needs_clouds() {
+            return Err(sim);
+        }
+        let drive = sim.work() == "drive";
+        let steps = sim.counters.physics_steps;
+        self.cp.lend(sim, self.units)?;
+        self.out = Some((drive, steps));
+        Ok(())
+    }
+
+    /// How much faster than real time the simulated rover drove: the
+    /// simulated time of the batches that drove it over their frames
+    /// (a batch a frame of `minor_frame_us`).
+    pub fn speed_x_real_time(&self, minor_frame_us: u32) -> Option<f64> {
+        let c = &self.counters;
+        (c.drive_batches > 0).then(|| {
+            c.drive_steps as f64 * self.dt_s
+                / (c.drive_batches as f64 * minor_frame_us as f64 * 1e-6)
+        })
+    }
+
+    /// The simulator back from its batch (waiting for it), the batch's
+    /// allocations charged to the running task.
+    pub fn join(&mut self) -> Option<Box<InternalSim>> {
+        let (sim, b) = self.cp.join()?;
+        accounting::charge(b.allocations, b.bytes);
+        self.batch_times.record(b.elapsed_ns);
+        self.counters.batches += 1;
+        if let Some((true, steps)) = self.out.take() {
+            self.counters.drive_batches += 1;
+            self.counters.drive_steps += sim.counters.physics_steps - steps;
+        }
+        Some(sim)
+    }
+}
