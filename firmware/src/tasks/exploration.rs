@@ -112,6 +112,8 @@ pub struct Exploration {
     back_out: bool,
     /// The plan under way is a back-out.
     backing_out: bool,
+    /// The plan whose end has been acted on.
+    ended: u64,
     /// The second look has been taken (see [`Exploration::second_look`]).
     second_look_taken: bool,
     /// Back-outs in a row (each stuck too): they alternate direction.
@@ -156,6 +158,7 @@ impl Exploration {
             no_go: heapless::Deque::new(),
             back_out: false,
             backing_out: false,
+            ended: 0,
             second_look_taken: false,
             escape_attempts: 0,
         }
@@ -484,9 +487,11 @@ impl Exploration {
             self.idle_since = None;
             return false;
         }
-        if self.idle_since.is_none() {
-            // The traverse is over: a goal the rover was stopped on the way
-            // to is not tried again.
+        if self.idle_since.is_none() && (self.executing == 0 || self.ended != self.executing) {
+            // The traverse is over (seen once per plan: queries that drive
+            // nothing leave the last plan's end standing): a goal the rover
+            // was stopped on the way to is not tried again.
+            self.ended = self.executing;
             let stop = bus.command.get().map_or(0, |c| c.value.stop);
             if let (true, Mode::Exploring, Some(g)) =
                 (stop != 0, self.explorer.mode(), bus.exploration.goal)

@@ -1357,12 +1357,32 @@ mod tests {
         assert!(!ex.retrace_due());
         ex.query_over();
         assert!(ex.retrace_due());
+        // Waiting for the next query does not act on the back-out's end
+        // again (that undid the query's verdict for 4,000 queries).
+        assert!(ex.ready(&bus, 4_350_000_000));
+        assert!(ex.retrace_due());
         ex.retrace(&mut bus, 4_400_000_000, 10, 8.0);
         let last = *published(&bus)
             .poses
             .last()
             .unwrap_or_else(|| panic!("no poses"));
         assert!((last[0] - 6.0).abs() < 1e-3, "{last:?}");
+    }
+
+    #[test]
+    fn when_nothing_is_left_but_barred_places_they_are_forgotten_once_a_mission() {
+        let e = crate::config::ExplorationConfig::default();
+        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);
+        assert!(!ex.second_look(), "nothing was barred");
+        let _ = ex.no_go.push_back([1.0, 2.0, 0.0]);
+        ex.explorer.reject([3.0, 4.0]);
+        assert!(ex.second_look());
+        assert!(ex.no_go.is_empty() && ex.explorer.rejected().is_empty());
+        assert_eq!(ex.mode(), Mode::Exploring);
+        assert_eq!(ex.counters.second_looks, 1);
+        let _ = ex.no_go.push_back([1.0, 2.0, 0.0]);
+        assert!(!ex.second_look(), "once a mission");
+        assert_eq!(ex.no_go.len(), 1);
     }
 
     #[test]
