@@ -208,10 +208,15 @@ impl CandidateScan {
             None => false,
         };
         let border_class = matches!(n.class, TravClass::Frontier | TravClass::Explorable);
-        if !(border_class || (at_border && n.class.is_drivable())) {
+        let p = trav.position(n);
+        // Ground the graph reaches on another level than the rover drove
+        // there: the upper part of a ramp driven under, whose far end the
+        // rings saw from below only as scattered stripes that close the
+        // graph without a frontier. Going up is the only way to see on.
+        let other_level = n.class.is_drivable() && coverage.level_apart(p[0], p[1], p[2]);
+        if !(border_class || other_level || (at_border && n.class.is_drivable())) {
             return None;
         }
-        let p = trav.position(n);
         let d = (p[0] - self.rover[0]).hypot(p[1] - self.rover[1]);
         if d < self.p.min_distance_m || coverage.covered(p[0], p[1], p[2]) {
             return None;

@@ -116,6 +116,18 @@ impl CoverageMap {
         })
     }
 
+    /// Whether the rover has been near (x, y) but only on another level:
+    /// `z` lies more than `LEVEL_BAND_M` over or under the heights it
+    /// marked the place from (a ramp's upper part over the floor driven
+    /// under it).
+    pub fn level_apart(&self, x: f64, y: f64, z: f64) -> bool {
+        let (ix, iy) = self.cell(x, y);
+        let bit = self
+            .index(ix, iy)
+            .is_some_and(|i| self.bits[i / 64] & (1 << (i % 64)) != 0);
+        bit && !self.covered(x, y, z)
+    }
+
     /// Covered area, m^2.
     pub fn area_m2(&self) -> f64 {
         self.covered as f64 * self.resolution * self.resolution
@@ -152,7 +164,13 @@ mod tests {
         c.mark(1.0, 1.0, 0.2, 2.0);
         assert!(c.covered(1.5, 1.0, 0.0) && c.covered(1.5, 1.0, 1.2));
         assert!(!c.covered(1.5, 1.0, 3.0));
+        assert!(c.level_apart(1.5, 1.0, 3.0) && !c.level_apart(1.5, 1.0, 0.0));
+        assert!(
+            !c.level_apart(8.0, 1.0, 3.0),
+            "never near: not a level apart"
+        );
         c.mark(1.0, 1.0, 3.2, 2.0);
+        assert!(!c.level_apart(1.5, 1.0, 3.0));
         assert!(c.covered(1.5, 1.0, 3.0) && c.covered(1.5, 1.0, 0.0));
     }
 }

@@ -150,3 +150,25 @@ fn the_waist_of_a_squeeze_is_a_candidate_only_when_nothing_roomier_is_left() {
     s.begin([0.0, 0.0], None, None);
     assert!(!s.is_tight());
 }
+
+#[test]
+fn ground_on_another_level_than_the_rover_drove_is_a_candidate_border_or_not() {
+    let t = corridor();
+    // Driven over the corridor's whole length 3 m higher (a deck over
+    // it): the corridor's floor is another level, every part of it a
+    // candidate, not only its open end.
+    let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    for k in 0..=12 {
+        cov.mark(k as f64, 0.0, 3.2, 3.0);
+    }
+    let best = scan(&t, &cov, &[], 100);
+    assert!(
+        best.iter().any(|c| c.position[0] < 9.0),
+        "inner floor should be a candidate: {best:?}"
+    );
+    // Never near at all, the inner floor is no candidate: only the border.
+    let cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    assert!(scan(&t, &cov, &[], 100)
+        .iter()
+        .all(|c| c.position[0] > 11.0));
+}

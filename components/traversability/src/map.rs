@@ -46,6 +46,10 @@ pub const NEIGHBOURS: [(i32, i32); 8] = [
     (1, -1),
 ];
 
+/// Cells under a footprint that must show a drop for it to hang over one:
+/// an edge crosses the footprint's rim in several, noise in one.
+const MIN_DROP_CELLS: usize = 3;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TravClass {
     Traversable,
@@ -475,6 +479,7 @@ impl TravMap {
         self.heights.clear();
         self.heights.resize(side * side, f32::NAN);
         let mut raised = false;
+        let mut drops = 0usize;
         for dy in -reach..=reach {
             for dx in -reach..=reach {
                 if ((dx * dx + dy * dy) as f64) > r2 {
@@ -495,6 +500,22 @@ impl TravMap {
                             && q.mean > n.patch_z + band
                             && q.mean <= n.patch_z + p.robot_height_m
                     });
+                    // Only surfaces far under it, seen from above, and
+                    // nothing near its height: the footprint hangs over a
+                    // drop (a ramp's open side, a ledge's rim). Not seen
+                    // at all is a ring gap, an underside seen from below
+                    // no drop, and a slab whose top the rings missed (its
+                    // underside is near) none either, whatever lies under
+                    // it. The garage's rover, whose path hugged a ramp's
+                    // edge, fell off it.
+                    let lo = n.patch_z - band;
+                    let near = cell
+                        .iter()
+                        .any(|q| q.max >= lo && q.min <= n.patch_z + band);
+                    let under = cell
+                        .iter()
+                        .any(|q| q.max < lo && !q.underside_for(n.patch_z));
+                    drops += (!near && under) as usize;
                 }
             }
         }
@@ -512,7 +533,10 @@ impl TravMap {
         };
         let step = has_step(&self.heights, side, p.max_step_m);
         let steep = pl.slope_deg() > p.max_slope_deg;
-        let blocked = steep || step || raised || self.body_hits(mls, n.ix, n.iy, &pl);
+        // A drop is an edge: cells of it along the footprint's rim, not one
+        // cell (a fleck of floor seen through a crack, a double floor).
+        let dropped = drops >= MIN_DROP_CELLS;
+        let blocked = steep || step || raised || dropped || self.body_hits(mls, n.ix, n.iy, &pl);
         let node = &mut self.nodes[i as usize];
         node.ground_z = pl.z_at(cx, cy) as f32;
         node.slope_deg = pl.slope_deg() as f32;

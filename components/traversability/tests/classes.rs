@@ -135,29 +135,23 @@ fn a_rock_marks_obstacles_only_where_the_body_cannot_avoid_it() {
 }
 
 #[test]
-fn sparse_data_is_unknown_and_its_drivable_neighbours_explorable() {
+fn sparse_data_is_unknown_and_the_ground_before_it_a_frontier() {
     let mut m = mls();
     surface(&mut m, (0.0, 3.0), (0.0, 3.0), |_, _| 0.0);
-    // A one-cell-wide ridge at y = 1.5..1.6 across a pit 0.8 m deep: on
-    // the ridge alone the support points are collinear, no plane.
-    surface(&mut m, (3.0, 5.0), (0.0, 1.5), |_, _| -0.8);
-    surface(&mut m, (3.0, 5.0), (1.6, 3.0), |_, _| -0.8);
+    // A one-cell-wide ridge at y = 1.5..1.6 across a gap nothing was
+    // seen in: on the ridge alone the support points are collinear, no
+    // plane. (A gap whose bottom is seen far below is a drop: its rim is
+    // no ground to stand on.)
     surface(&mut m, (3.0, 5.0), (1.5, 1.6), |_, _| 0.0);
     let t = build(&m, [1.5, 1.5, 0.0]);
-    // Within 0.4 m of the floor the ridge is carried by it.
-    assert_eq!(class_at(&t, 3.15, 1.55, 0.0), Some(TravClass::Traversable));
-    assert_eq!(class_at(&t, 3.25, 1.55, 0.0), Some(TravClass::Explorable));
+    // Within 0.4 m of the floor the ridge is carried by it, at the border
+    // of what was seen; beyond, it is unknown.
+    assert_eq!(class_at(&t, 3.15, 1.55, 0.0), Some(TravClass::Frontier));
+    assert_eq!(class_at(&t, 3.25, 1.55, 0.0), Some(TravClass::Frontier));
     assert_eq!(class_at(&t, 3.35, 1.55, 0.0), Some(TravClass::Unknown));
-    assert_eq!(
-        class_at(&t, 3.45, 1.55, 0.0),
-        None,
-        "unknown ends the growth"
-    );
-    // The pit is seen: the floor by it is no frontier; the outer edges are.
-    assert_eq!(class_at(&t, 2.95, 0.55, 0.0), Some(TravClass::Traversable));
-    assert_eq!(class_at(&t, 0.05, 0.55, 0.0), Some(TravClass::Frontier));
+    assert_eq!(class_at(&t, 2.55, 1.55, 0.0), Some(TravClass::Traversable));
     let s = t.stats();
-    assert_eq!((s.unknown, s.explorable), (1, 1), "{s:?}");
+    assert_eq!((s.unknown, s.obstacle), (4, 0), "{s:?}");
 }
 
 #[test]
@@ -185,6 +179,48 @@ fn two_levels_over_each_other_stay_apart_unless_a_ramp_joins_them() {
     let under = both.nodes_in_cell(30, 20).count();
     assert_eq!(under, 2, "ground and deck in cell (30, 20)");
     assert!(class_at(&both, 3.0, 2.0, 2.5).is_some());
+}
+
+#[test]
+fn ground_that_overhangs_a_drop_is_an_obstacle_a_small_step_down_is_not() {
+    let mut m = mls();
+    // A deck 1.5 m over the floor for x < 4, the floor seen beyond it;
+    // for y >= 4 a step of 0.05 m down instead.
+    surface(&mut m, (0.0, 4.0), (0.0, 4.0), |_, _| 1.5);
+    surface(&mut m, (4.0, 8.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (0.0, 4.0), (4.0, 8.0), |_, _| 1.5);
+    surface(&mut m, (4.0, 8.0), (4.0, 8.0), |_, _| 1.45);
+    let t = build(&m, [2.0, 2.0, 1.5]);
+    assert_eq!(class_at(&t, 2.0, 2.0, 1.5), Some(TravClass::Traversable));
+    // Within the footprint's radius (0.4 m) of the edge, in three cells of
+    // it or more: the wheels would hang over the drop.
+    assert_eq!(class_at(&t, 3.75, 2.0, 1.5), Some(TravClass::Obstacle));
+    assert_eq!(class_at(&t, 3.65, 2.0, 1.5), Some(TravClass::Traversable));
+    // Down the small step the deck carries on.
+    assert_eq!(class_at(&t, 3.95, 6.0, 1.5), Some(TravClass::Traversable));
+    assert!(class_at(&t, 5.0, 6.0, 1.45).is_some_and(TravClass::is_drivable));
+    // A deck over a floor seen under it (a garage's level over the one
+    // below), whose top the rings missed in one column of cells where its
+    // underside was seen from below: no drop there.
+    let mut m = mls();
+    surface(&mut m, (0.0, 2.0), (0.0, 4.0), |_, _| 1.5);
+    surface(&mut m, (2.1, 4.0), (0.0, 4.0), |_, _| 1.5);
+    surface(&mut m, (0.0, 4.0), (0.0, 4.0), |_, _| 0.0);
+    let under: Vec<[f64; 3]> = (0..40)
+        .map(|k| [2.05, k as f64 * 0.1 + 0.05, 1.25])
+        .collect();
+    m.insert_points_seen_from(&under, 0.6);
+    let t = build(&m, [1.0, 2.0, 1.5]);
+    assert_eq!(class_at(&t, 2.25, 2.1, 1.5), Some(TravClass::Traversable));
+    assert_eq!(class_at(&t, 1.85, 2.1, 1.5), Some(TravClass::Traversable));
+    // Where nothing of the deck was seen at all over the floor, it is.
+    let mut m = mls();
+    surface(&mut m, (0.0, 2.0), (0.0, 4.0), |_, _| 1.5);
+    surface(&mut m, (2.1, 4.0), (0.0, 4.0), |_, _| 1.5);
+    surface(&mut m, (0.0, 4.0), (0.0, 4.0), |_, _| 0.0);
+    let t = build(&m, [1.0, 2.0, 1.5]);
+    assert_eq!(class_at(&t, 1.75, 2.1, 1.5), Some(TravClass::Obstacle));
+    assert_eq!(class_at(&t, 1.65, 2.1, 1.5), Some(TravClass::Traversable));
 }
 
 #[test]

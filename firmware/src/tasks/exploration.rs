@@ -47,6 +47,9 @@ pub struct ExplorationCounters {
     pub sim_triangles_max: u64,
 }
 
+/// A retrace that left the rover within this of where it began got
+/// nowhere: the next one from there goes the other way, m.
+const RETRACE_HEADWAY_M: f64 = 0.3;
 /// Results kept for the report's medians.
 const HISTORY: usize = 8192;
 
@@ -118,6 +121,8 @@ pub struct Exploration {
     second_look_taken: bool,
     /// Back-outs in a row (each stuck too): they alternate direction.
     escape_attempts: u32,
+    /// Where the last retrace began, and whether it was driven backward.
+    retraced_from: Option<([f64; 3], bool)>,
 }
 
 impl Exploration {
@@ -161,6 +166,7 @@ impl Exploration {
             ended: 0,
             second_look_taken: false,
             escape_attempts: 0,
+            retraced_from: None,
         }
     }
 
@@ -225,18 +231,40 @@ impl Exploration {
             n += 1;
             at = *p;
         }
+        // Driven forward, the rover turning round where it must. When the
+        // last retrace began here and got nowhere, the other way: in a
+        // mesh world's junction, turning round onto the track tilted the
+        // rover on a rim, stop after stop for the rest of the mission.
+        // (Backward every time, the lava tube's rover tilted backing down
+        // a slope it had driven up.)
+        let backward = match self.retraced_from {
+            Some((p, b)) if (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M => !b,
+            _ => false,
+        };
+        self.retraced_from = Some((pose, backward));
+        let turn = if backward { core::f64::consts::PI } else { 0.0 };
         for i in 0..n {
             let (a, b) = (points[i], points[(i + 1).min(n - 1)]);
-            let heading = if i + 1 < n {
+            let along = if i + 1 < n {
                 (b[1] - a[1]).atan2(b[0] - a[0])
             } else {
                 let p = points[i.saturating_sub(1)];
                 (a[1] - p[1]).atan2(a[0] - p[0])
             };
+            let heading = (along + turn + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
+                - core::f64::consts::PI;
             let _ = msg
                 .poses
                 .push([a[0] as f32, a[1] as f32, a[2] as f32, heading as f32]);
         }
+        tracing::debug!(
+            x = pose[0],
+            y = pose[1],
+            to_x = points[n - 1][0],
+            to_y = points[n - 1][1],
+            backward,
+            "retracing"
+        );
         self.executing = query;
         self.counters.plans_executed += 1;
         bus.exploration.goal = Some(points[n - 1]);
@@ -259,6 +287,12 @@ impl Exploration {
             1.0
         };
         self.escape_attempts += 1;
+        tracing::debug!(
+            x = p.position[0],
+            y = p.position[1],
+            backward = sign > 0.0,
+            "backing out"
+        );
         let mut msg = PlanMsg {
             query,
             execute: true,

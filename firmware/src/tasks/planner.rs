@@ -1370,6 +1370,46 @@ mod tests {
     }
 
     #[test]
+    fn a_retrace_drives_the_track_forward_and_backward_when_that_got_nowhere() {
+        let e = crate::config::ExplorationConfig::default();
+        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);
+        let mut bus = bus_on_a_floor();
+        // Driven from x = 1 to x = 5 along y = 2, facing +x.
+        for k in 0..=40 {
+            let x = 1.0 + 0.1 * k as f64;
+            bus.slam.publish(
+                k * 100_000_000,
+                SlamPose {
+                    position: [x, 2.0, 0.17],
+                    orientation: [1.0, 0.0, 0.0, 0.0],
+                    keyframes: 1,
+                },
+            );
+            ex.observe(&mut bus, k * 100_000_000);
+        }
+        ex.no_start();
+        assert!(ex.retrace_due());
+        ex.retrace(&mut bus, 4_200_000_000, 9, 3.0);
+        let plan = published(&bus);
+        let last = plan.poses[plan.poses.len() - 1];
+        assert!((last[0] - 2.0).abs() < 0.6, "{plan:?}");
+        // Facing back along the track (-x) all the way: driven forward.
+        let back = |p: &[f32; 4]| (p[3].abs() - core::f32::consts::PI).abs() < 1e-3;
+        assert!(plan.poses.iter().all(back), "{plan:?}");
+        // It got nowhere (stopped where it began): backward this time,
+        // facing +x as the rover does...
+        ex.no_start();
+        ex.retrace(&mut bus, 4_300_000_000, 10, 3.0);
+        let plan = published(&bus);
+        assert!(plan.poses.iter().all(|p| p[3].abs() < 1e-3), "{plan:?}");
+        // ...and forward again after that.
+        ex.no_start();
+        ex.retrace(&mut bus, 4_400_000_000, 11, 3.0);
+        assert!(published(&bus).poses.iter().all(back));
+        assert_eq!(ex.counters.retraces, 3);
+    }
+
+    #[test]
     fn when_nothing_is_left_but_barred_places_they_are_forgotten_once_a_mission() {
         let e = crate::config::ExplorationConfig::default();
         let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);

@@ -87,12 +87,19 @@ impl Patch {
     /// seen from above and below, whose underside may outnumber its top).
     /// A tall patch whose points fill its height (a wall, a rock, a ledge's
     /// face) is no ground. A thin slab, under the vertical threshold,
-    /// stands at its mean: its top cannot be told from a wall's foot under
-    /// an overhang, and reading those as ground narrowed the lava tube's
-    /// squeeze until the mission ended there.
+    /// stands at its mean when some point of it was seen from above: its
+    /// top cannot be told from a wall's foot under an overhang, and reading
+    /// those as ground narrowed the lava tube's squeeze until the mission
+    /// ended there. Never seen from above, it stands at its top: a ray
+    /// from below cannot reach a surface over the slab's underside through
+    /// it, so the top cluster is the slab's top glimpsed at a grazing
+    /// angle (a garage ramp seen from the level under it, whose 0.25 m
+    /// slab straddles the vertical threshold; its mean, pulled down by the
+    /// underside, cut the ramp into steps the planner refused).
     pub fn ground(&self) -> Option<f32> {
         let slab = self.under > f32::MIN && self.top - self.under > SLAB_GAP_M;
         match self.kind {
+            PatchKind::Horizontal if slab && !self.seen_from_above => Some(self.top),
             PatchKind::Horizontal => Some(self.mean),
             PatchKind::Vertical if slab => Some(self.top),
             PatchKind::Vertical => None,
@@ -413,6 +420,21 @@ mod tests {
         offer(&mut p, &mut n, &[0.8, 0.81, 0.79, 0.8, 1.0, 0.8, 1.01]);
         assert_eq!(p[0].kind, PatchKind::Horizontal);
         assert!((p[0].top - 1.005).abs() < 1e-3, "{:?}", p[0]);
+        assert_eq!(p[0].ground(), Some(p[0].mean));
+        // Seen only from below, the same slab stands at its top.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        for z in [0.8, 0.81, 0.79, 0.8, 1.0, 0.8, 1.01] {
+            insert(&mut p, &mut n, z, false, &RULE);
+        }
+        assert_eq!(p[0].kind, PatchKind::Horizontal);
+        assert_eq!(p[0].ground(), Some(p[0].top));
+        // Without a top cluster clear of the rest, at its mean still.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        for z in [0.8, 0.85, 0.9, 0.95, 1.0] {
+            insert(&mut p, &mut n, z, false, &RULE);
+        }
         assert_eq!(p[0].ground(), Some(p[0].mean));
     }
 
