@@ -569,7 +569,7 @@ impl TravMap {
                 if mls
                     .cell(ix + dx, iy + dy)
                     .iter()
-                    .any(|q| q.max >= lo && q.min <= hi)
+                    .any(|q| q.solid_max() >= lo && q.min <= hi)
                 {
                     return true;
                 }

@@ -120,6 +120,15 @@ fn a_rock_marks_obstacles_only_where_the_body_cannot_avoid_it() {
     // Beyond the inscribed radius (0.3 m) from the rock's edge.
     assert_eq!(class_at(&t, 3.0, 3.5, 0.0), Some(TravClass::Traversable));
     assert_eq!(class_at(&t, 1.0, 1.0, 0.0), Some(TravClass::Traversable));
+    // One stray return 0.15 m over the floor is no rock; two are.
+    let mut m = mls();
+    surface(&mut m, (0.0, 6.0), (0.0, 6.0), |_, _| 0.0);
+    m.insert_points(&[[3.05, 3.05, 0.15]]);
+    let t = build(&m, [1.0, 1.0, 0.0]);
+    assert_eq!(class_at(&t, 3.0, 3.0, 0.0), Some(TravClass::Traversable));
+    m.insert_points(&[[3.05, 3.05, 0.16]]);
+    let t = build(&m, [1.0, 1.0, 0.0]);
+    assert_eq!(class_at(&t, 2.75, 3.05, 0.0), Some(TravClass::Obstacle));
     // A low ceiling is an obstacle too; a high one is not.
     let mut m = mls();
     surface(&mut m, (0.0, 6.0), (0.0, 6.0), |_, _| 0.0);

@@ -125,6 +125,18 @@ impl Patch {
         }
     }
 
+    /// The highest point but a lone stray one: when the top cluster is a
+    /// single point over the rest (a return off the scan's noise or a
+    /// misregistered scan), the highest of the rest. A rock's top is seen
+    /// by several points and stays.
+    pub fn solid_max(&self) -> f32 {
+        if self.top_count <= 1 && self.under > f32::MIN {
+            self.under
+        } else {
+            self.max
+        }
+    }
+
     /// Height span of the points (m).
     pub fn extent(&self) -> f32 {
         self.max - self.min
@@ -429,6 +441,13 @@ mod tests {
         }
         assert_eq!(p[0].kind, PatchKind::Horizontal);
         assert_eq!(p[0].ground(), Some(p[0].top));
+        // One stray point over a floor is no solid top; two are.
+        let mut p = [Patch::default(); 4];
+        let mut n = 0;
+        offer(&mut p, &mut n, &[0.0, 0.01, -0.01, 0.0, 0.15]);
+        assert_eq!((p[0].max, p[0].solid_max()), (0.15, 0.01));
+        offer(&mut p, &mut n, &[0.16]);
+        assert_eq!(p[0].solid_max(), 0.16);
         // Without a top cluster clear of the rest, at its mean still.
         let mut p = [Patch::default(); 4];
         let mut n = 0;
