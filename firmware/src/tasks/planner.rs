@@ -1293,15 +1293,12 @@ mod tests {
         assert!(nearest_m(&wary, at) > NO_GO_RADIUS_M, "{wary:?}");
     }
 
-    #[test]
-    fn a_stuck_rover_backs_out_a_metre_straight_then_plans_then_backs_out_forward_and_remembers_the_place(
-    ) {
-        use crate::bus::WheelCommand;
-        use speleo_control::StopReason;
+    /// Exploring, the rover driven from x = 1 to x = 5 along y = 2,
+    /// facing +x.
+    fn driven_from_x1_to_x5() -> (Exploration, Box<Bus>) {
         let e = crate::config::ExplorationConfig::default();
         let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);
         let mut bus = bus_on_a_floor();
-        // Driven from x = 1 to x = 5 along y = 2, then stuck.
         for k in 0..=40 {
             let x = 1.0 + 0.1 * k as f64;
             bus.slam.publish(
@@ -1314,6 +1311,16 @@ mod tests {
             );
             ex.observe(&mut bus, k * 100_000_000);
         }
+        (ex, bus)
+    }
+
+    #[test]
+    fn a_stuck_rover_backs_out_a_metre_straight_then_plans_then_backs_out_forward_and_remembers_the_place(
+    ) {
+        use crate::bus::WheelCommand;
+        use speleo_control::StopReason;
+        let (mut ex, mut bus) = driven_from_x1_to_x5();
+        // Then stuck.
         bus.command.publish(
             4_100_000_000,
             WheelCommand {
@@ -1371,22 +1378,7 @@ mod tests {
 
     #[test]
     fn a_retrace_drives_the_track_forward_and_backward_when_that_got_nowhere() {
-        let e = crate::config::ExplorationConfig::default();
-        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);
-        let mut bus = bus_on_a_floor();
-        // Driven from x = 1 to x = 5 along y = 2, facing +x.
-        for k in 0..=40 {
-            let x = 1.0 + 0.1 * k as f64;
-            bus.slam.publish(
-                k * 100_000_000,
-                SlamPose {
-                    position: [x, 2.0, 0.17],
-                    orientation: [1.0, 0.0, 0.0, 0.0],
-                    keyframes: 1,
-                },
-            );
-            ex.observe(&mut bus, k * 100_000_000);
-        }
+        let (mut ex, mut bus) = driven_from_x1_to_x5();
         ex.no_start();
         assert!(ex.retrace_due());
         ex.retrace(&mut bus, 4_200_000_000, 9, 3.0);
