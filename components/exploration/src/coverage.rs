@@ -103,17 +103,14 @@ impl CoverageMap {
 
     /// Whether (x, y) at height `z` is covered (outside the grid: no).
     pub fn covered(&self, x: f64, y: f64, z: f64) -> bool {
-        let (ix, iy) = self.cell(x, y);
-        let bit = self
-            .index(ix, iy)
-            .is_some_and(|i| self.bits[i / 64] & (1 << (i % 64)) != 0);
-        bit && self.level_index(x, y).is_some_and(|i| {
-            let (lo, hi) = self.levels[i];
-            let zc = z * 100.0;
-            lo <= hi
-                && zc >= lo as f64 - LEVEL_BAND_M * 100.0
-                && zc <= hi as f64 + LEVEL_BAND_M * 100.0
-        })
+        self.marked(x, y)
+            && self.level_index(x, y).is_some_and(|i| {
+                let (lo, hi) = self.levels[i];
+                let zc = z * 100.0;
+                lo <= hi
+                    && zc >= lo as f64 - LEVEL_BAND_M * 100.0
+                    && zc <= hi as f64 + LEVEL_BAND_M * 100.0
+            })
     }
 
     /// Whether the rover has been near (x, y) but only on another level:
@@ -121,11 +118,14 @@ impl CoverageMap {
     /// marked the place from (a ramp's upper part over the floor driven
     /// under it).
     pub fn level_apart(&self, x: f64, y: f64, z: f64) -> bool {
+        self.marked(x, y) && !self.covered(x, y, z)
+    }
+
+    /// Whether (x, y) lies near the rover's track, at any height.
+    fn marked(&self, x: f64, y: f64) -> bool {
         let (ix, iy) = self.cell(x, y);
-        let bit = self
-            .index(ix, iy)
-            .is_some_and(|i| self.bits[i / 64] & (1 << (i % 64)) != 0);
-        bit && !self.covered(x, y, z)
+        self.index(ix, iy)
+            .is_some_and(|i| self.bits[i / 64] & (1 << (i % 64)) != 0)
     }
 
     /// Covered area, m^2.
