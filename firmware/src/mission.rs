@@ -198,6 +198,7 @@ fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, Mission
         let idle = crate::config::PlannerConfig {
             max_nodes: 16,
             window_m: 2.0,
+            window_max_m: 2.0,
             goal_ahead_m: 1.0,
             ..cfg.planner.clone()
         };

@@ -15,8 +15,11 @@
 pub enum Probe {
     /// Ground within the tolerance.
     Ground,
-    /// No ground seen there: unobserved, or a drop.
+    /// No ground seen there: unobserved, or a ring gap.
     NoGround,
+    /// No ground near the height, only ground seen from above far below:
+    /// the rim of a ledge or a ramp's open side.
+    Drop,
     /// Something at body height over the ground.
     Blocked,
 }
@@ -93,6 +96,10 @@ pub struct SafetyParams {
     /// The longest stretch without ground that counts as a sensor gap, m
     /// (the HDL-32E's rings leave gaps on the ground).
     pub max_gap_m: f64,
+    /// The longest stretch of drop that counts as noise (a fleck of floor
+    /// seen through a crack), m; a drop is an edge even where the plan
+    /// began.
+    pub max_drop_m: f64,
     /// Within this much of the front, something at body height stops the
     /// rover, m.
     pub blocked_within_m: f64,
@@ -118,6 +125,7 @@ impl Default for SafetyParams {
             probe_ahead_m: 0.8,
             probe_step_m: 0.1,
             max_gap_m: 0.6,
+            max_drop_m: 0.15,
             blocked_within_m: 0.2,
             max_step_m: 0.2,
             max_slope_deg: 30.0,
@@ -287,18 +295,30 @@ impl SafetyMonitor {
         // Beyond the path's end the rover will not go.
         let reach = self.p.probe_ahead_m.min(s.remaining_m.max(0.0));
         let steps = (reach / self.p.probe_step_m).floor() as usize;
-        let mut gap = 0.0;
+        let (mut gap, mut drop) = (0.0, 0.0);
         for k in 0..=steps {
             let d = k as f64 * self.p.probe_step_m;
             let r = self.p.front_m + d;
             let (x, y) = front(d);
-            match map.probe(x, y, ground, self.p.max_step_m + r * slope) {
+            let probe = map.probe(x, y, ground, self.p.max_step_m + r * slope);
+            if probe == Probe::Drop {
+                // Seen, so not the blind ring around the plan's start: a
+                // garage rover turning round at a ramp's open side, within
+                // that ring, drove off it.
+                drop += self.p.probe_step_m;
+                if drop > self.p.max_drop_m {
+                    return Some(StopReason::LeavingMap);
+                }
+            } else {
+                drop = 0.0;
+            }
+            match probe {
                 Probe::Ground => gap = 0.0,
                 // The LiDAR never sees the ground around where the rover
                 // stood still (its lowest beam meets it ~1 m away): no
                 // ground there is no edge.
                 Probe::NoGround if self.in_blind_zone(x, y) => gap = 0.0,
-                Probe::NoGround => {
+                Probe::NoGround | Probe::Drop => {
                     gap += self.p.probe_step_m;
                     if gap > self.p.max_gap_m {
                         return Some(StopReason::LeavingMap);
@@ -440,6 +460,43 @@ mod tests {
             None,
             "1 m of hole is bridged by the ring gap rule"
         );
+    }
+
+    #[test]
+    fn a_drop_seen_stops_the_rover_even_where_the_plan_began() {
+        // The ramp's open side 1 m ahead of where the plan begins: within
+        // the blind ring, but seen as a drop, not as nothing.
+        struct Rim(Probe);
+        impl GroundProbe for Rim {
+            fn probe(&self, x: f64, _y: f64, _z: f64, _tol: f64) -> Probe {
+                if x < 1.0 {
+                    Probe::Ground
+                } else {
+                    self.0
+                }
+            }
+        }
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        assert_eq!(
+            m.check(&input(0.0, 0.0), &Rim(Probe::Drop)),
+            Some(StopReason::LeavingMap)
+        );
+        // Unseen ground there is the blind ring, not an edge.
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        assert_eq!(m.check(&input(0.0, 0.0), &Rim(Probe::NoGround)), None);
+        // A fleck of drop (one probe) is noise.
+        struct Fleck;
+        impl GroundProbe for Fleck {
+            fn probe(&self, x: f64, _y: f64, _z: f64, _tol: f64) -> Probe {
+                if (0.95..1.05).contains(&x) {
+                    Probe::Drop
+                } else {
+                    Probe::Ground
+                }
+            }
+        }
+        let mut m = SafetyMonitor::new(SafetyParams::default());
+        assert_eq!(m.check(&input(0.0, 0.0), &Fleck), None);
     }
 
     #[test]

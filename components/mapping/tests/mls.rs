@@ -454,3 +454,32 @@ fn a_slab_seen_only_from_below_is_an_underside_until_seen_from_above() {
     m.insert_points(&under);
     assert!(m.cell(0, 0)[0].seen_from_above);
 }
+
+#[test]
+fn a_thin_floor_seen_from_both_sides_stands_at_its_top_a_lip_over_a_floor_does_not() {
+    // A garage slab 0.2 m thick (under the vertical threshold): many
+    // underside points from the level under it, a few top points from the
+    // level it floors. Its mean lies near the underside; one stands on
+    // its top.
+    let mut m = map(MlsParams::default());
+    let under: Vec<[f64; 3]> = (0..20)
+        .map(|k| [0.05, 0.05, 2.8 + k as f64 * 1e-3])
+        .collect();
+    m.insert_points_seen_from(&under, 0.5);
+    m.insert_points_seen_from(&[[0.05, 0.05, 3.0], [0.05, 0.05, 3.01]], 3.5);
+    let p = m.cell(0, 0)[0];
+    assert_eq!(p.kind, PatchKind::Horizontal, "{p:?}");
+    assert!(p.mean < 2.9, "{p:?}");
+    assert!(
+        p.ground().is_some_and(|g| (g - 3.005).abs() < 1e-3),
+        "{p:?}"
+    );
+    // A floor with a lip 0.2 m over it, both seen from a sensor over
+    // them: the floor is what one stands on, not the lip.
+    let mut m = map(MlsParams::default());
+    let floor: Vec<[f64; 3]> = (0..20).map(|k| [0.05, 0.05, k as f64 * 1e-3]).collect();
+    m.insert_points_seen_from(&floor, 0.7);
+    m.insert_points_seen_from(&[[0.05, 0.05, 0.2], [0.05, 0.05, 0.21]], 0.7);
+    let p = m.cell(0, 0)[0];
+    assert!(p.ground().is_some_and(|g| g < 0.1), "{p:?}");
+}

@@ -273,3 +273,29 @@ fn a_clearance_weight_keeps_the_path_farther_from_a_rock() {
         closest(&plain)
     );
 }
+
+#[test]
+fn turning_round_at_a_ramps_foot_costs_what_turning_on_the_ramp_does() {
+    // Just short of the foot, to face the other way where it stands: the
+    // node is level, but the legs on the ramp side dig into the ramp.
+    let m = world();
+    let free = SurfaceParams {
+        turn_slope_weight_per_deg: 0.0,
+        ..SurfaceParams::default()
+    };
+    for x in [4.7, 4.8] {
+        let start = [x, 1.5, 0.0, 0.0];
+        let goal = [x, 1.5, 0.0, std::f64::consts::PI];
+        let p = plan(&m, start, goal);
+        let q = plan_with(&m, start, goal, free.clone());
+        assert!(p.cost.is_some() && q.cost.is_some(), "no plan");
+        assert!(q.cost < p.cost, "at {x}: {:?} {:?}", q.cost, p.cost);
+    }
+    // Far from the ramp, turning costs the same either way.
+    let start = [2.0, 1.5, 0.0, 0.0];
+    let goal = [2.0, 1.5, 0.0, std::f64::consts::PI];
+    assert_eq!(
+        plan(&m, start, goal).cost,
+        plan_with(&m, start, goal, free).cost
+    );
+}

@@ -20,7 +20,7 @@
 
 use std::collections::{HashMap, VecDeque};
 
-use speleo_mapping::mls::{ground_near, MlsMap, Patch, PatchKind};
+use speleo_mapping::mls::{drop_at, ground_near, MlsMap, Patch, PatchKind};
 use thiserror::Error;
 
 use crate::params::TravParams;
@@ -500,22 +500,10 @@ impl TravMap {
                             && q.mean > n.patch_z + band
                             && q.mean <= n.patch_z + p.robot_height_m
                     });
-                    // Only surfaces far under it, seen from above, and
-                    // nothing near its height: the footprint hangs over a
-                    // drop (a ramp's open side, a ledge's rim). Not seen
-                    // at all is a ring gap, an underside seen from below
-                    // no drop, and a slab whose top the rings missed (its
-                    // underside is near) none either, whatever lies under
-                    // it. The garage's rover, whose path hugged a ramp's
-                    // edge, fell off it.
-                    let lo = n.patch_z - band;
-                    let near = cell
-                        .iter()
-                        .any(|q| q.max >= lo && q.min <= n.patch_z + band);
-                    let under = cell
-                        .iter()
-                        .any(|q| q.max < lo && !q.underside_for(n.patch_z));
-                    drops += (!near && under) as usize;
+                    // The footprint hangs over a drop (a ramp's open
+                    // side, a ledge's rim): the garage's rover, whose
+                    // path hugged a ramp's edge, fell off it.
+                    drops += drop_at(cell, n.patch_z, band) as usize;
                 }
             }
         }

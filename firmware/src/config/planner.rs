@@ -18,6 +18,12 @@ pub struct PlannerConfig {
     pub enabled: bool,
     /// Side of the square around the rover the graph is grown in, m.
     pub window_m: f64,
+    /// Exploring, after a query that drove nothing (no candidate, or none
+    /// reachable) the next grows its graph in a window half as large
+    /// again, up to this side, m; a plan driven brings it back to
+    /// `window_m`. The way to a garage ramp's foot lay outside 30 m from
+    /// the far side of the level.
+    pub window_max_m: f64,
     /// Most nodes the graph holds; the search's storage is this many
     /// nodes times the primitives' headings.
     pub max_nodes: usize,
@@ -61,6 +67,7 @@ impl Default for PlannerConfig {
         PlannerConfig {
             enabled: true,
             window_m: 30.0,
+            window_max_m: 60.0,
             max_nodes: 1 << 16,
             goal_ahead_m: 8.0,
             replan_every_s: 10.0,
@@ -85,10 +92,17 @@ impl Default for PlannerConfig {
 impl PlannerConfig {
     pub(super) fn validate(&self, mls_resolution_m: f64) -> Result<(), ConfigError> {
         range("planner.window_m", self.window_m, 2.0, 500.0, "2..=500")?;
-        let cells = (self.window_m / mls_resolution_m + 2.0).powi(2);
+        range(
+            "planner.window_max_m",
+            self.window_max_m,
+            self.window_m,
+            500.0,
+            "window_m..=500",
+        )?;
+        let cells = (self.window_max_m / mls_resolution_m + 2.0).powi(2);
         if cells > 64e6 {
             return Err(ConfigError::Invalid {
-                key: "planner.window_m".into(),
+                key: "planner.window_max_m".into(),
                 why: format!("{cells:.0} cells of maps.mls_resolution_m: at most 64 M"),
             });
         }
@@ -197,11 +211,11 @@ impl PlannerConfig {
         }
     }
 
-    /// Cells of the lattice's map table for the growth window at
+    /// Cells of the lattice's map table for the largest growth window at
     /// `resolution_m`.
     pub fn window_cells(&self, resolution_m: f64) -> usize {
         speleo_planner::surface::grid_cells_for_window(
-            self.window_m,
+            self.window_max_m,
             resolution_m,
             &self.surface_params(),
         )

@@ -15,7 +15,7 @@ use speleo_control::{
     AccelLimiter, FollowerParams, GroundProbe, PlanFollower, Probe, PurePursuit, SafetyMonitor,
     SkidSteer, StopReason, Twist,
 };
-use speleo_mapping::mls::{ground_near, MlsMap};
+use speleo_mapping::mls::{drop_at, ground_near, MlsMap};
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::{Bus, WheelCommand};
@@ -141,6 +141,9 @@ impl GroundProbe for MlsProbe<'_> {
         let (ix, iy) = self.0.cell_of(x, y);
         let cell = self.0.cell(ix, iy);
         let Some(g) = ground_near(cell, z as f32, tol_m as f32) else {
+            if drop_at(cell, z as f32, tol_m as f32) {
+                return Probe::Drop;
+            }
             return Probe::NoGround;
         };
         let (lo, hi) = (g + BODY_BAND_M.0, g + BODY_BAND_M.1);

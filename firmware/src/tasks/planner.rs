@@ -62,6 +62,9 @@ const SCAN_PER_UNIT: usize = 8;
 /// not proven optimal this many expansions after the first is driven as it
 /// is (its bound is in the plan).
 const EXPLORE_GOAL_EXPANSIONS: u64 = 40_000;
+
+/// A query that drove nothing grows the next one's window by this factor.
+const WINDOW_GROWTH: f64 = 1.5;
 const EXPLORE_IMPROVE_EXPANSIONS: u64 = 20_000;
 
 /// What the task has done.
@@ -149,7 +152,10 @@ pub struct PlannerTask {
     looped: bool,
     /// Exploration's goals instead of the route's.
     explore: Option<Box<Exploration>>,
+    /// Half the side of the growth window now, as configured, and at most.
     window_half_m: f64,
+    window_base_half_m: f64,
+    window_max_half_m: f64,
     goal_ahead_m: f64,
     replan_ns: u64,
     max_expansions: u64,
@@ -226,6 +232,8 @@ impl PlannerTask {
             looped,
             explore: None,
             window_half_m: cfg.window_m / 2.0,
+            window_base_half_m: cfg.window_m / 2.0,
+            window_max_half_m: cfg.window_max_m / 2.0,
             goal_ahead_m: cfg.goal_ahead_m,
             replan_ns: (cfg.replan_every_s * 1e9) as u64,
             max_expansions: cfg.max_expansions,
@@ -360,6 +368,7 @@ impl PlannerTask {
         }
         self.counters.no_start += 1;
         if let Some(ex) = &mut self.explore {
+            tracing::debug!(x, y, candidates = k, "no ground to grow the graph from");
             ex.no_start();
         }
         self.end_query();
@@ -373,6 +382,13 @@ impl PlannerTask {
         }
         if let Some(ex) = &mut self.explore {
             ex.query_over();
+            // Nothing driven from here: look farther next time (the way
+            // to what is left may start outside the window).
+            self.window_half_m = if ex.executing == self.counters.queries {
+                self.window_base_half_m
+            } else {
+                (self.window_half_m * WINDOW_GROWTH).min(self.window_max_half_m)
+            };
         }
         self.phase = Phase::Idle;
     }
@@ -409,6 +425,12 @@ impl PlannerTask {
         let Some((s, _)) = q.start else {
             self.counters.no_start += 1;
             if let Some(ex) = &mut self.explore {
+                tracing::debug!(
+                    x = q.rover[0],
+                    y = q.rover[1],
+                    nodes = nodes.len(),
+                    "no drivable node under the rover"
+                );
                 ex.no_start();
             }
             self.end_query();
@@ -491,6 +513,23 @@ impl PlannerTask {
         }
         counters.scans += 1;
         let found = !scan.best().is_empty();
+        if !found
+            && explorer.mode() == Mode::Exploring
+            && self.window_half_m < self.window_max_half_m
+        {
+            // Nothing here yet: the next query looks farther before the
+            // rover turns back (at a garage ramp's top, the retrace drove
+            // it back down).
+            counters.scans_empty += 1;
+            tracing::debug!(
+                x = self.query.rover[0],
+                y = self.query.rover[1],
+                window_m = 2.0 * self.window_half_m,
+                "no candidate in the window"
+            );
+            self.end_query();
+            return Phase::Idle;
+        }
         if matches!(explorer.mode(), Mode::Returning(_)) {
             if !found {
                 // Nothing new here either: on home.
@@ -514,6 +553,12 @@ impl PlannerTask {
         let best = ex.scan.best();
         if best.is_empty() {
             ex.counters.scans_empty += 1;
+            tracing::debug!(
+                x = self.query.rover[0],
+                y = self.query.rover[1],
+                nodes = self.lat.trav().nodes().len(),
+                "no candidate"
+            );
             ex.no_start();
             self.counters.no_goal += 1;
             self.end_query();
@@ -570,7 +615,10 @@ impl PlannerTask {
         };
         ex.counters.goals_unreachable += 1;
         let at = self.query.order[self.query.tried].1;
-        if ex.mode() == Mode::Exploring {
+        // Only a window as large as it gets proves a goal out of reach:
+        // the way to it may leave a smaller one (from the far side of a
+        // garage level, the way onto the ramp whose top was the goal).
+        if ex.mode() == Mode::Exploring && self.window_half_m >= self.window_max_half_m {
             ex.explorer.reject([at[0], at[1]]);
         }
         self.phase = self.try_goal(self.query.tried + 1);
@@ -1113,6 +1161,39 @@ mod tests {
             t.step(&mut bus, &cx(20_000 + f), 32);
         }
         assert_eq!(t.counters.queries, 1);
+    }
+
+    #[test]
+    fn a_query_that_drives_nothing_widens_the_next_window_up_to_its_most_a_plan_driven_restores_it()
+    {
+        // A 2 x 2 m floor all within the 3 m the rover covers where it
+        // stands: nothing to explore from here.
+        let mut pts = Vec::new();
+        for i in 0..40 {
+            for j in 0..40 {
+                pts.push([i as f64 * 0.05, j as f64 * 0.05, 0.0]);
+            }
+        }
+        let mut bus = bus_with_map(&pts, [1.0, 1.0, 0.17]);
+        let mut t = exploring_task();
+        let cfg = PlannerConfig::default();
+        assert_eq!(t.window_half_m, cfg.window_m / 2.0);
+        run_query(&mut t, &mut bus);
+        assert_eq!(t.counters.queries, 1);
+        assert_eq!(t.window_half_m, cfg.window_m * 1.5 / 2.0);
+        // Never past the most.
+        t.window_half_m = cfg.window_max_m / 2.0 - 1.0;
+        t.end_query();
+        assert_eq!(t.window_half_m, cfg.window_max_m / 2.0);
+        assert!(bus.plan.get().is_none());
+        // On a floor with somewhere to go, the plan driven brings the
+        // window back.
+        let mut bus = bus_on_a_floor();
+        let mut t = exploring_task();
+        t.window_half_m = cfg.window_max_m / 2.0;
+        run_query(&mut t, &mut bus);
+        assert!(published(&bus).execute);
+        assert_eq!(t.window_half_m, cfg.window_m / 2.0);
     }
 
     /// Height of the ledge: over the planner's configured step, but the

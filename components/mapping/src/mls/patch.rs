@@ -54,6 +54,13 @@ pub struct Patch {
     /// top was not seen: under a height where one stands, it is neither
     /// ground nor a drop (see [`Patch::underside_for`]).
     pub seen_from_above: bool,
+    /// Some point of the top cluster was seen from above: the top is a
+    /// surface seen from where one stands on it (a garage slab's top from
+    /// the level it floors), not the highest part of something seen from
+    /// below.
+    pub top_seen_from_above: bool,
+    /// Some point under the top cluster was seen from above.
+    pub under_seen_from_above: bool,
 }
 
 impl Patch {
@@ -70,6 +77,8 @@ impl Patch {
             top_count: 1,
             kind: PatchKind::Horizontal,
             seen_from_above: from_above,
+            top_seen_from_above: from_above,
+            under_seen_from_above: false,
         }
     }
 
@@ -87,19 +96,27 @@ impl Patch {
     /// seen from above and below, whose underside may outnumber its top).
     /// A tall patch whose points fill its height (a wall, a rock, a ledge's
     /// face) is no ground. A thin slab, under the vertical threshold,
-    /// stands at its mean when some point of it was seen from above: its
-    /// top cannot be told from a wall's foot under an overhang, and reading
-    /// those as ground narrowed the lava tube's squeeze until the mission
-    /// ended there. Never seen from above, it stands at its top: a ray
-    /// from below cannot reach a surface over the slab's underside through
-    /// it, so the top cluster is the slab's top glimpsed at a grazing
-    /// angle (a garage ramp seen from the level under it, whose 0.25 m
-    /// slab straddles the vertical threshold; its mean, pulled down by the
-    /// underside, cut the ramp into steps the planner refused).
+    /// stands at its top when what lies under its top was only ever seen
+    /// from below, and at its mean otherwise:
+    /// - Never seen from above, the top cluster is the slab's top glimpsed
+    ///   at a grazing angle: a ray from below cannot reach a surface over
+    ///   the slab's underside through it (a garage ramp seen from the
+    ///   level under it, whose 0.25 m slab straddles the vertical
+    ///   threshold; its mean, pulled down by the underside, cut the ramp
+    ///   into steps the planner refused).
+    /// - Its top seen from above and its underside from below, it is a
+    ///   floor over a room (a garage level's slab: at its mean, level 1 was
+    ///   a patchwork of steps no graph crossed).
+    /// - Points under the top seen from above too are a floor with
+    ///   something low on it, such as a wall's foot under a lip: reading
+    ///   the lip as ground narrowed the lava tube's squeeze until the
+    ///   mission ended there.
     pub fn ground(&self) -> Option<f32> {
         let slab = self.under > f32::MIN && self.top - self.under > SLAB_GAP_M;
+        let top_over_underside =
+            !self.under_seen_from_above && (self.top_seen_from_above || !self.seen_from_above);
         match self.kind {
-            PatchKind::Horizontal if slab && !self.seen_from_above => Some(self.top),
+            PatchKind::Horizontal if slab && top_over_underside => Some(self.top),
             PatchKind::Horizontal => Some(self.mean),
             PatchKind::Vertical if slab => Some(self.top),
             PatchKind::Vertical => None,
@@ -111,17 +128,21 @@ impl Patch {
     /// and the old one, up to the patch's `max` so far, is under it; points
     /// under the band are under it too. Call before updating `max`.
     #[inline(always)]
-    fn add_top(&mut self, z: f32, z_hi: f32, n: u16) {
+    fn add_top(&mut self, z: f32, z_hi: f32, n: u16, from_above: bool) {
         if z > self.top + TOP_BAND_M {
             self.under = self.under.max(self.max);
+            self.under_seen_from_above |= self.top_seen_from_above;
             self.top = z;
             self.top_count = n;
+            self.top_seen_from_above = from_above;
         } else if z >= self.top - TOP_BAND_M {
             let total = self.top_count.saturating_add(n);
             self.top += (z - self.top) * (n as f32 / total as f32);
             self.top_count = total;
+            self.top_seen_from_above |= from_above;
         } else {
             self.under = self.under.max(z_hi);
+            self.under_seen_from_above |= from_above;
         }
     }
 
@@ -168,7 +189,7 @@ impl Patch {
         };
         self.mean += k * (z - self.mean);
         self.variance -= k * self.variance;
-        self.add_top(z, z, 1);
+        self.add_top(z, z, 1, from_above);
         self.seen_from_above |= from_above;
         // Heights are finite: plain comparisons (no NaN handling).
         if z < self.min {
@@ -191,7 +212,13 @@ impl Patch {
         self.mean += k * (other.mean - self.mean);
         self.variance -= k * self.variance;
         self.under = self.under.max(other.under);
-        self.add_top(other.top, other.max, other.top_count);
+        self.under_seen_from_above |= other.under_seen_from_above;
+        self.add_top(
+            other.top,
+            other.max,
+            other.top_count,
+            other.top_seen_from_above,
+        );
         self.seen_from_above |= other.seen_from_above;
         self.min = self.min.min(other.min);
         self.max = self.max.max(other.max);
@@ -324,6 +351,16 @@ pub fn ground_near(cell: &[Patch], z: f32, tol: f32) -> Option<f32> {
         .filter_map(Patch::ground)
         .filter(|g| (g - z).abs() <= tol)
         .min_by(|a, b| (a - z).abs().total_cmp(&(b - z).abs()))
+}
+
+/// Whether `cell` shows a drop at height `z`: nothing within `tol` of it,
+/// but a surface more than `tol` under it. Not seen at all is a ring gap,
+/// an underside seen from below is no drop (one cannot see a drop from
+/// below), and a slab whose top the rings missed has its underside near.
+pub fn drop_at(cell: &[Patch], z: f32, tol: f32) -> bool {
+    let lo = z - tol;
+    let near = cell.iter().any(|q| q.max >= lo && q.min <= z + tol);
+    !near && cell.iter().any(|q| q.max < lo && !q.underside_for(z))
 }
 
 fn remove(patches: &mut [Patch], len: &mut usize, at: usize) {
@@ -568,6 +605,24 @@ mod tests {
         assert_eq!(
             insert(&mut none, &mut zero, 0.0, true, &RULE),
             CellUpdate::Full
+        );
+    }
+
+    #[test]
+    fn a_drop_is_ground_seen_from_above_far_below_and_nothing_near() {
+        let floor = Patch::new(-1.0, 4e-4, true);
+        let underside = Patch::new(-1.0, 4e-4, false);
+        let here = Patch::new(0.05, 4e-4, true);
+        assert!(drop_at(&[floor], 0.0, 0.3));
+        assert!(!drop_at(&[floor, here], 0.0, 0.3), "ground near the height");
+        assert!(
+            !drop_at(&[underside], 0.0, 0.3),
+            "a drop is not seen from below"
+        );
+        assert!(!drop_at(&[], 0.0, 0.3), "unobserved is a ring gap");
+        assert!(
+            !drop_at(&[Patch::new(-0.2, 4e-4, true)], 0.0, 0.3),
+            "a step"
         );
     }
 }
