@@ -122,6 +122,8 @@ pub enum ExplorationPhase {
     Returning,
     /// Home: the mission is over.
     Finished,
+    /// Over away from home: the rover cannot move.
+    Stranded,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

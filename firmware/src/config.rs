@@ -127,6 +127,10 @@ pub struct SimConfig {
     pub faults: Vec<String>,
     /// The physics rover's build.
     pub rover: speleo_hal::sim::PhysicsParams,
+    /// Where the rover starts instead of the world's start: x, y, floor
+    /// z (m, world frame) and yaw (degrees). Home is there too; the
+    /// world's scripted route, which begins at its own start, is dropped.
+    pub start: Option<[f64; 4]>,
 }
 
 /// A loop closure that claims keyframe `newer` sits at `offset_m` and
@@ -159,6 +163,7 @@ impl Default for SimConfig {
             false_loop_closure: None,
             faults: Vec::new(),
             rover: speleo_hal::sim::PhysicsParams::default(),
+            start: None,
         }
     }
 }
@@ -574,6 +579,14 @@ impl Config {
             1.0e6,
             "0..=1000000",
         )?;
+        if let Some(st) = s.start {
+            if !st.iter().all(|v| v.is_finite()) {
+                return Err(ConfigError::Invalid {
+                    key: "sim.start".into(),
+                    why: "x, y, floor z (m) and yaw (degrees) must be finite numbers".into(),
+                });
+            }
+        }
         if s.world.is_empty() {
             return Err(ConfigError::Invalid {
                 key: "sim.world".into(),
@@ -924,6 +937,16 @@ mod tests {
         let c = Config::default();
         c.validate().expect("valid");
         assert_eq!(Config::from_toml(&c.to_toml()).expect("parses"), c);
+    }
+
+    #[test]
+    fn a_start_pose_is_read_and_a_non_finite_one_is_named() {
+        let c = Config::from_toml("[sim]\nstart = [2.5, 2.3, 3.0, 90.0]\n").expect("read");
+        assert_eq!(c.sim.start, Some([2.5, 2.3, 3.0, 90.0]));
+        let e = Config::from_toml("[sim]\nstart = [2.5, nan, 3.0, 0.0]\n").expect_err("refused");
+        assert!(e.to_string().contains("sim.start"), "{e}");
+        let e = Config::from_toml("[sim]\nstart = [2.5, 2.3]\n").expect_err("refused");
+        assert!(e.to_string().contains("start"), "{e}");
     }
 
     #[test]

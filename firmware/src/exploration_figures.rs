@@ -72,6 +72,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         Mode::Exploring => ("exploring", None),
         Mode::Returning(r) => ("returning", Some(reason(r))),
         Mode::Finished(r) => ("finished", Some(reason(r))),
+        Mode::Stranded => ("stranded", None),
     };
     ExplorationFigures {
         state: state.into(),

@@ -313,7 +313,12 @@ fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
         margin_m: s.margin_m,
         dt_s: s.dt_s,
         goal_tolerance_m: s.goal_tolerance_m,
-        tip_over_deg: s.tip_over_deg,
+        // The rover's own safety monitor stops it at its tilt limit: a
+        // plan that tilts it past that fails on board as surely as one
+        // that turns it over (in the garage, plans the simulation passed
+        // at 32 degrees, a wheel down a ramp's side, stopped the rover
+        // there).
+        tip_over_deg: s.tip_over_deg.min(cfg.control.max_tilt_deg),
         stuck_after_s: s.stuck_after_s,
         base_height_m: base_height_m(cfg),
         ..speleo_simulator::SimulatorParams::default()
@@ -504,8 +509,12 @@ pub fn run<C: FrameClock>(
     let mut first_half_peak = None;
     accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
     loop {
-        // An exploration that is home ends the mission.
-        let finished = bus.exploration.phase == crate::bus::ExplorationPhase::Finished;
+        // An exploration that is home, or cannot move any more, ends the
+        // mission.
+        let finished = matches!(
+            bus.exploration.phase,
+            crate::bus::ExplorationPhase::Finished | crate::bus::ExplorationPhase::Stranded
+        );
         if total.is_some_and(|n| exec.frames_run() >= n)
             || m.stop.load(Ordering::Relaxed)
             || finished
@@ -831,4 +840,20 @@ pub fn summary_metadata(r: &MissionResult) -> BTreeMap<String, String> {
     m.insert("output_hash".into(), format!("{:016x}", r.output_hash));
     m.insert("mode_at_end".into(), mode_name(r.mode).into());
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_internal_simulation_fails_a_plan_where_the_safety_monitor_would_stop_the_rover() {
+        let mut cfg = Config::default();
+        cfg.control.max_tilt_deg = 30.0;
+        cfg.simulator.tip_over_deg = 45.0;
+        assert_eq!(simulator_params(&cfg).tip_over_deg, 30.0);
+        // A lower tip-over angle of its own still counts.
+        cfg.simulator.tip_over_deg = 25.0;
+        assert_eq!(simulator_params(&cfg).tip_over_deg, 25.0);
+    }
 }

@@ -340,7 +340,12 @@ pub(crate) fn simulate(
     progress: bool,
 ) -> Result<MissionResult, Error> {
     cfg.validate()?;
-    let world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
+    let mut world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
+    if let Some([x, y, z, yaw_deg]) = cfg.sim.start {
+        world.start = [x, y, z, yaw_deg.to_radians()];
+        // The scripted route begins at the world's own start.
+        world.route.clear();
+    }
     if cfg.sim.follow_route && world.route.len() >= 2 {
         cfg.control.path =
             route_in_odometry_frame(&world, cfg.sim.out_and_back, cfg.sim.route_length_m);

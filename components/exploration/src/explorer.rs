@@ -55,6 +55,9 @@ pub enum Mode {
     Returning(ReturnReason),
     /// Home.
     Finished(ReturnReason),
+    /// Over, away from home: the rover cannot move (tilted past the point
+    /// where the safety monitor lets any wheel turn).
+    Stranded,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,6 +147,13 @@ impl Explorer {
             if d <= self.p.home_tolerance_m {
                 self.mode = Mode::Finished(r);
             }
+        }
+    }
+
+    /// The rover cannot move any more: the mission ends where it stands.
+    pub fn strand(&mut self) {
+        if !matches!(self.mode, Mode::Finished(_)) {
+            self.mode = Mode::Stranded;
         }
     }
 
@@ -251,6 +261,28 @@ mod tests {
         // Home is home.
         e.resume();
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+    }
+
+    #[test]
+    fn a_stranded_rover_ends_the_mission_where_it_stands_and_stays_stranded() {
+        let mut e = Explorer::new(ExplorerParams::default(), [0.0; 3]);
+        e.observe(1.0, [6.0, 0.0, 0.0]);
+        e.strand();
+        assert_eq!(e.mode(), Mode::Stranded);
+        // Nothing brings it back: neither a frontier, nor the time limit,
+        // nor passing near home (it cannot move).
+        e.resume();
+        e.query_result(false);
+        e.observe(1.0e6, [0.0, 0.0, 0.0]);
+        assert_eq!(e.mode(), Mode::Stranded);
+        // Home is home: a finished mission is not stranded afterwards.
+        let mut home = Explorer::new(ExplorerParams::default(), [0.0; 3]);
+        for _ in 0..3 {
+            home.query_result(false);
+        }
+        home.observe(2.0, [0.1, 0.0, 0.0]);
+        home.strand();
+        assert_eq!(home.mode(), Mode::Finished(ReturnReason::Explored));
     }
 
     #[test]

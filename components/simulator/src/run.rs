@@ -118,6 +118,15 @@ const RIBBON_MARGIN_M: f64 = 0.3;
 const STUCK_TURN_RAD: f64 = 0.3;
 /// The rover is put down this far over its estimated ground, m.
 const DROP_M: f64 = 0.08;
+/// Keyframes whose sensor stood this far under the plan's lowest ground
+/// are left out of its world, m: from a level below they see only the
+/// underside of the floor the plan drives on. With SLAM's drift between
+/// levels (the garage rover's height estimate sank on the way up a ramp),
+/// that underside lay over the floor's top seen from above, and the rays
+/// from below carved the floor away: the simulated rover tipped over or
+/// stuck in the holes where the real one stood level. Not less: from a
+/// ramp's foot the rings see the ramp's middle, over the sensor.
+const BELOW_PLAN_M: f64 = 1.5;
 /// Half the side of the ground pad under the rover at the start, m.
 const FOOTPRINT_PAD_M: f64 = 1.0;
 /// The follower runs at 50 Hz, as the control task does.
@@ -142,6 +151,8 @@ pub struct InternalSim {
     time_allowed_s: f64,
     /// The world's box, low and high corners.
     bounds: ([f64; 3], [f64; 3]),
+    /// The lowest of the plan's ground and the start, m.
+    lowest_z: f64,
     /// Stuck detection: when, where and at which heading progress was
     /// last seen (turning on the spot is progress too).
     anchor: (f64, [f64; 2], f64),
@@ -167,6 +178,7 @@ impl InternalSim {
             moving_since: None,
             time_allowed_s: 0.0,
             bounds: ([0.0; 3], [0.0; 3]),
+            lowest_z: 0.0,
             anchor: (0.0, [0.0; 2], 0.0),
             prediction: Prediction::with_capacity(),
             scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
@@ -198,6 +210,7 @@ impl InternalSim {
                 hi[k] = hi[k].max(q[k]);
             }
         }
+        self.lowest_z = lo[2];
         let m = self.p.margin_m;
         // Drops a metre under the plan; walls and roof up to where the body
         // (0.7 m) could meet them.
@@ -349,7 +362,9 @@ impl InternalSim {
         let Some(origin) = clouds.origin(k) else {
             return next;
         };
-        if !self.terrain.near(origin, self.p.cloud_range_m) {
+        if !self.terrain.near(origin, self.p.cloud_range_m)
+            || origin[2] < self.lowest_z - BELOW_PLAN_M
+        {
             return next;
         }
         let more = clouds.points(k, from, POINTS_PER_UNIT, &mut self.scratch);

@@ -195,3 +195,79 @@ fn a_goal_where_the_seen_floor_ends_is_reached() {
     let (outcome, _, err) = validate_plan(flat, plan_to(8.2, flat));
     assert_eq!(outcome, Outcome::Reached, "{err}");
 }
+
+/// `Scans` of a floor at z = 0, and keyframes from the level under it
+/// that see its underside at `underside_z` (a slab's underside, with the
+/// drift SLAM leaves between two levels).
+struct TwoLevels {
+    top: Scans,
+    under: Vec<([f64; 3], Vec<[f64; 3]>)>,
+}
+
+impl TwoLevels {
+    fn new(underside_z: f64) -> TwoLevels {
+        let mut under = Vec::new();
+        for s in 0..5 {
+            let o = [-1.0 + 2.0 * s as f64, 0.0, -2.3];
+            let mut pts = Vec::new();
+            for i in 0..200 {
+                for j in 0..60 {
+                    pts.push([-2.0 + 0.05 * i as f64, -1.5 + 0.05 * j as f64, underside_z]);
+                }
+            }
+            under.push((o, pts));
+        }
+        TwoLevels {
+            top: Scans::new(|_| 0.0),
+            under,
+        }
+    }
+}
+
+impl CloudSource for TwoLevels {
+    fn keyframes(&self) -> usize {
+        self.top.keyframes() + self.under.len()
+    }
+    fn origin(&self, k: usize) -> Option<[f64; 3]> {
+        match k.checked_sub(self.top.keyframes()) {
+            None => self.top.origin(k),
+            Some(u) => self.under.get(u).map(|l| l.0),
+        }
+    }
+    fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
+        let Some(u) = k.checked_sub(self.top.keyframes()) else {
+            return self.top.points(k, from, n, out);
+        };
+        out.clear();
+        let p = &self.under[u].1;
+        let to = (from + n).min(p.len());
+        out.extend_from_slice(&p[from.min(to)..to]);
+        to < p.len()
+    }
+}
+
+#[test]
+fn a_floor_also_seen_from_the_level_under_it_is_driven_on() {
+    // A garage slab's underside seen from the level below 8 cm over its
+    // top, as the two levels' SLAM poses put it (the rover's own estimate
+    // drifted down on the way up): the rays from below carve the floor
+    // away unless the world is built from the keyframes that can see the
+    // floor the plan drives on (the rover was stuck in its holes).
+    let scans = TwoLevels::new(0.08);
+    let p = SimulatorParams::default();
+    let mut sim = InternalSim::new(p.clone()).expect("sim");
+    sim.begin([0.0, 0.0, p.base_height_m, 0.0], plan(|_| 0.0));
+    let mut steps = 0;
+    let v = loop {
+        if let Some(v) = sim.step(&scans, 32) {
+            break v;
+        }
+        steps += 1;
+        assert!(steps < 2_000_000, "no verdict");
+    };
+    assert_eq!(v.outcome, Outcome::Reached, "{v:?}");
+    // The simulated rover stayed on the floor's top.
+    let z: Vec<f64> = sim.prediction().iter().map(|q| q[2]).collect();
+    let lowest = z.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(lowest > 0.0, "{lowest} {z:?}");
+}

@@ -21,7 +21,8 @@ pub struct SimulatorConfig {
     pub dt_s: f64,
     /// The goal is reached within this distance, m.
     pub goal_tolerance_m: f64,
-    /// A tilt over this is a tip-over, deg.
+    /// A tilt over this is a tip-over, deg (or over `control.max_tilt_deg`,
+    /// where the safety monitor would stop the rover, when that is lower).
     pub tip_over_deg: f64,
     /// Commanded this long without 0.1 m of progress: stuck, s.
     pub stuck_after_s: f64,

@@ -123,7 +123,16 @@ pub struct Exploration {
     escape_attempts: u32,
     /// Where the last retrace began, and whether it was driven backward.
     retraced_from: Option<([f64; 3], bool)>,
+    /// Plans in a row stopped for tilt where the one before was (see
+    /// [`Exploration::count_tilt_stall`]), and where that was.
+    tilt_stalls: u32,
+    last_tilt_stop: [f64; 3],
 }
+
+/// Tilt stops in a row without moving after which the rover is stranded.
+const TILT_STALLS_TO_STRAND: u32 = 6;
+/// Tilt stops this near each other count as one place, m.
+const TILT_STALL_RADIUS_M: f64 = 0.1;
 
 impl Exploration {
     /// All storage taken now (the coverage map around the origin).
@@ -167,6 +176,36 @@ impl Exploration {
             second_look_taken: false,
             escape_attempts: 0,
             retraced_from: None,
+            tilt_stalls: 0,
+            last_tilt_stop: [f64::INFINITY; 3],
+        }
+    }
+
+    /// A plan ended with `stop`: past the safety monitor's hard tilt limit
+    /// no wheel turns, so plan after plan stops where it began (in the
+    /// garage a rover hanging off a ramp's side at 42 degrees retraced,
+    /// backward and forward, for the rest of the mission). After a few
+    /// such stops in one place the rover is stranded and the mission ends.
+    fn count_tilt_stall(&mut self, stop: u8, bus: &Bus) {
+        let Some(p) = bus.slam.get().map(|p| p.value.position) else {
+            return;
+        };
+        if stop != StopReason::Tilt as u8 {
+            self.tilt_stalls = 0;
+            return;
+        }
+        let q = self.last_tilt_stop;
+        let same = (p[0] - q[0]).hypot(p[1] - q[1]) < TILT_STALL_RADIUS_M;
+        self.tilt_stalls = if same { self.tilt_stalls + 1 } else { 1 };
+        self.last_tilt_stop = p;
+        if self.tilt_stalls >= TILT_STALLS_TO_STRAND {
+            tracing::warn!(
+                x = p[0],
+                y = p[1],
+                z = p[2],
+                "stranded: tilted past the limit, no plan moves the rover"
+            );
+            self.explorer.strand();
         }
     }
 
@@ -183,7 +222,7 @@ impl Exploration {
     }
 
     pub fn retrace_due(&self) -> bool {
-        self.stranded && !matches!(self.explorer.mode(), Mode::Finished(_))
+        self.stranded && !matches!(self.explorer.mode(), Mode::Finished(_) | Mode::Stranded)
     }
 
     /// Drive back along the rover's own track, `ahead_m` of it, as plan
@@ -500,6 +539,7 @@ impl Exploration {
                 Mode::Exploring => ExplorationPhase::Exploring,
                 Mode::Returning(_) => ExplorationPhase::Returning,
                 Mode::Finished(_) => ExplorationPhase::Finished,
+                Mode::Stranded => ExplorationPhase::Stranded,
             },
             goal: bus.exploration.goal,
         };
@@ -509,7 +549,7 @@ impl Exploration {
     /// the control task has finished the last plan (or has none) and the
     /// maps have had `settle_s` since.
     pub fn ready(&mut self, bus: &Bus, now: u64) -> bool {
-        if !self.homed || matches!(self.explorer.mode(), Mode::Finished(_)) {
+        if !self.homed || matches!(self.explorer.mode(), Mode::Finished(_) | Mode::Stranded) {
             return false;
         }
         let idle = self.executing == 0
@@ -559,6 +599,7 @@ impl Exploration {
             } else if stop == 0 {
                 self.escape_attempts = 0;
             }
+            self.count_tilt_stall(stop, bus);
         }
         let since = *self.idle_since.get_or_insert(now);
         if now < since + self.settle_ns {
@@ -566,5 +607,54 @@ impl Exploration {
         }
         self.idle_since = None;
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bus::SlamPose;
+
+    fn at(bus: &mut Bus, p: [f64; 3]) {
+        bus.slam.publish(
+            0,
+            SlamPose {
+                position: p,
+                orientation: [1.0, 0.0, 0.0, 0.0],
+                keyframes: 1,
+            },
+        );
+    }
+
+    #[test]
+    fn tilt_stops_in_one_place_strand_the_rover_and_moving_on_resets_the_count() {
+        let mut e = Exploration::new(
+            ExplorerParams::default(),
+            CandidateParams::default(),
+            None,
+            1.0,
+        );
+        let mut bus = Bus::new();
+        let tilt = StopReason::Tilt as u8;
+        // Tilt stops that each got somewhere, or other stops between
+        // them, never strand it.
+        for k in 0..2 * TILT_STALLS_TO_STRAND {
+            at(&mut bus, [k as f64, 0.0, 0.0]);
+            e.count_tilt_stall(tilt, &bus);
+        }
+        at(&mut bus, [50.0, 0.0, 0.0]);
+        for _ in 0..TILT_STALLS_TO_STRAND - 1 {
+            e.count_tilt_stall(tilt, &bus);
+        }
+        e.count_tilt_stall(0, &bus);
+        e.count_tilt_stall(tilt, &bus);
+        assert_eq!(e.explorer.mode(), Mode::Exploring);
+        // Stop after stop where it stood: stranded, the mission over.
+        for _ in 0..TILT_STALLS_TO_STRAND {
+            at(&mut bus, [50.02, 0.01, 0.0]);
+            e.count_tilt_stall(tilt, &bus);
+        }
+        assert_eq!(e.explorer.mode(), Mode::Stranded);
+        assert!(!e.retrace_due());
     }
 }

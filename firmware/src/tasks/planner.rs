@@ -783,8 +783,9 @@ impl PlannerTask {
             ex.sim_lend();
             return;
         };
+        let end = sim.prediction().last().copied().unwrap_or([f64::NAN; 3]);
         ex.record_verdict(v.outcome, now);
-        tracing::debug!(outcome = ?v.outcome, drive_s = v.drive_s, goal_error_m = v.goal_error_m, "simulated");
+        tracing::debug!(outcome = ?v.outcome, drive_s = v.drive_s, goal_error_m = v.goal_error_m, start_z = self.query.rover[2], end_x = end[0], end_y = end[1], end_z = end[2], "simulated");
         if v.success() {
             let (best, optimal) = self.query.best;
             self.publish(bus, now, best, optimal, true);
