@@ -48,12 +48,16 @@ impl CloudSource for Scans {
         self.origins.get(k).copied()
     }
     fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
-        out.clear();
-        let p = &self.points[k];
-        let to = (from + n).min(p.len());
-        out.extend_from_slice(&p[from.min(to)..to]);
-        to < p.len()
+        serve(&self.points[k], from, n, out)
     }
+}
+
+/// Up to `n` of `points` from `from` into `out`; whether more are left.
+fn serve(points: &[[f64; 3]], from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
+    out.clear();
+    let to = (from + n).min(points.len());
+    out.extend_from_slice(&points[from.min(to)..to]);
+    to < points.len()
 }
 
 fn plan(z: impl Fn(f64) -> f64) -> Vec<[f64; 4]> {
@@ -90,12 +94,23 @@ fn run(
     plan: Vec<[f64; 4]>,
     units: usize,
 ) -> (Outcome, Vec<[f64; 3]>, f64) {
-    let scans = Scans::new(z);
+    run_on(sim, &Scans::new(z), z(0.0), plan, units)
+}
+
+/// One validation in `sim` on `scans`, the rover standing on ground at
+/// height `ground` at the origin.
+fn run_on(
+    sim: &mut InternalSim,
+    scans: &impl CloudSource,
+    ground: f64,
+    plan: Vec<[f64; 4]>,
+    units: usize,
+) -> (Outcome, Vec<[f64; 3]>, f64) {
     let p = SimulatorParams::default();
-    sim.begin([0.0, 0.0, z(0.0) + p.base_height_m, 0.0], plan);
+    sim.begin([0.0, 0.0, ground + p.base_height_m, 0.0], plan);
     let mut steps = 0;
     let v = loop {
-        if let Some(v) = sim.step(&scans, units) {
+        if let Some(v) = sim.step(scans, units) {
             break v;
         }
         steps += 1;
@@ -235,14 +250,10 @@ impl CloudSource for TwoLevels {
         }
     }
     fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
-        let Some(u) = k.checked_sub(self.top.keyframes()) else {
-            return self.top.points(k, from, n, out);
-        };
-        out.clear();
-        let p = &self.under[u].1;
-        let to = (from + n).min(p.len());
-        out.extend_from_slice(&p[from.min(to)..to]);
-        to < p.len()
+        match k.checked_sub(self.top.keyframes()) {
+            None => self.top.points(k, from, n, out),
+            Some(u) => serve(&self.under[u].1, from, n, out),
+        }
     }
 }
 
@@ -254,20 +265,11 @@ fn a_floor_also_seen_from_the_level_under_it_is_driven_on() {
     // away unless the world is built from the keyframes that can see the
     // floor the plan drives on (the rover was stuck in its holes).
     let scans = TwoLevels::new(0.08);
-    let p = SimulatorParams::default();
-    let mut sim = InternalSim::new(p.clone()).expect("sim");
-    sim.begin([0.0, 0.0, p.base_height_m, 0.0], plan(|_| 0.0));
-    let mut steps = 0;
-    let v = loop {
-        if let Some(v) = sim.step(&scans, 32) {
-            break v;
-        }
-        steps += 1;
-        assert!(steps < 2_000_000, "no verdict");
-    };
-    assert_eq!(v.outcome, Outcome::Reached, "{v:?}");
+    let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+    let (outcome, prediction, err) = run_on(&mut sim, &scans, 0.0, plan(|_| 0.0), 32);
+    assert_eq!(outcome, Outcome::Reached, "{err}");
     // The simulated rover stayed on the floor's top.
-    let z: Vec<f64> = sim.prediction().iter().map(|q| q[2]).collect();
+    let z: Vec<f64> = prediction.iter().map(|q| q[2]).collect();
     let lowest = z.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(lowest > 0.0, "{lowest} {z:?}");
 }
