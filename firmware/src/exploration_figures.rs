@@ -44,6 +44,10 @@ pub struct ExplorationFigures {
     pub goals_rejected_by_sim: u64,
     pub plans_executed: u64,
     pub plans_completed: u64,
+    /// Queries whose goals all failed the simulation and that drove the
+    /// part of a refused plan the simulated rover drove well (up to a
+    /// metre short of where it failed).
+    pub partial_plans: u64,
     /// Going home without a plan from where the rover stood: drives back
     /// along its own track.
     pub retraces: u64,
@@ -84,6 +88,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         goals_rejected_by_sim: e.counters.rejected_by_sim,
         plans_executed: e.counters.plans_executed,
         plans_completed: c.plans_completed,
+        partial_plans: e.counters.partial_plans,
         retraces: e.counters.retraces,
         resumes: e.counters.resumes,
         backed_out: e.counters.backed_out,

@@ -17,10 +17,12 @@
 
 mod params;
 mod prediction;
+mod prefix;
 mod ribbon;
 mod run;
 mod terrain;
 
 pub use params::SimulatorParams;
 pub use prediction::{rmse_at_equal_times, Prediction, PREDICTION_POINTS};
+pub use prefix::{driven_prefix, Prefix, PrefixRule};
 pub use run::{CloudSource, InternalSim, Outcome, SimCounters, Verdict};

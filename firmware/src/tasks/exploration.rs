@@ -6,12 +6,14 @@
 
 use speleo_control::StopReason;
 use speleo_exploration::{CandidateParams, CandidateScan, Explorer, ExplorerParams, Mode};
-use speleo_simulator::{rmse_at_equal_times, InternalSim, Outcome, PREDICTION_POINTS};
+use speleo_simulator::{
+    driven_prefix, rmse_at_equal_times, InternalSim, Outcome, Prefix, PrefixRule, PREDICTION_POINTS,
+};
 
 use crate::tasks::sim_worker::SimWorker;
 use speleo_slam::lie::Pose;
 
-use crate::bus::{Bus, ExplorationPhase, ExplorationStatus, PlanMsg};
+use crate::bus::{Bus, ExplorationPhase, ExplorationStatus, PlanMsg, PLAN_POSES};
 
 /// What the exploration did, for the report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -45,6 +47,10 @@ pub struct ExplorationCounters {
     pub sim_outcomes: [u64; 5],
     pub sim_physics_steps: u64,
     pub sim_triangles_max: u64,
+    /// Refused plans whose first part, the part the simulated rover drove
+    /// well, was driven when no goal of the query passed (see
+    /// [`Partial`]).
+    pub partial_plans: u64,
 }
 
 /// A retrace that left the rover within this of where it began got
@@ -65,6 +71,50 @@ pub const NO_GO_RADIUS_M: f64 = 0.6;
 /// After a stuck stop the rover backs this far, m.
 const BACK_OUT_M: f64 = 1.0;
 
+/// The longest well-driven first part of the plans the simulation refused
+/// in one query ([`speleo_simulator::driven_prefix`]): the rover drives it
+/// when no goal of the query passes. A garage ramp seen from the level
+/// under it is ground up to the sensor's height and an underside beyond,
+/// where the simulated rover stalls; from partway up, the rest is seen.
+pub struct Partial {
+    pub poses: heapless::Vec<[f32; 4], PLAN_POSES>,
+    /// The prediction up to the last pose.
+    pub predicted: Vec<[f64; 3]>,
+    pub length_m: f64,
+    /// The refused goal it was on the way to.
+    pub goal: [f64; 3],
+}
+
+impl Partial {
+    pub fn clear(&mut self) {
+        self.poses.clear();
+        self.predicted.clear();
+        self.length_m = 0.0;
+    }
+
+    /// Keep `prefix` of `plan` (and of `prediction`) if it is longer than
+    /// the one kept.
+    pub fn offer(
+        &mut self,
+        plan: &[[f32; 4]],
+        prediction: &[[f64; 3]],
+        prefix: Prefix,
+        goal: [f64; 3],
+    ) {
+        if prefix.length_m <= self.length_m {
+            return;
+        }
+        self.clear();
+        for q in &plan[..prefix.poses.min(plan.len())] {
+            let _ = self.poses.push(*q);
+        }
+        let n = prefix.samples.min(prediction.len()).min(PREDICTION_POINTS);
+        self.predicted.extend_from_slice(&prediction[..n]);
+        self.length_m = prefix.length_m;
+        self.goal = goal;
+    }
+}
+
 /// The executed track of a validated plan, sampled like the prediction.
 struct Comparison {
     query: u64,
@@ -74,6 +124,16 @@ struct Comparison {
     moving_since: Option<u64>,
     next_sample_ns: u64,
     active: bool,
+}
+
+impl Comparison {
+    /// Follow plan `query` against the prediction now held.
+    fn begin(&mut self, query: u64) {
+        self.query = query;
+        self.executed.clear();
+        self.moving_since = None;
+        self.active = true;
+    }
 }
 
 pub struct Exploration {
@@ -99,6 +159,8 @@ pub struct Exploration {
     /// When the validation under way began.
     pub validation_began_ns: u64,
     comparison: Comparison,
+    pub partial: Partial,
+    partial_scratch: Vec<[f64; 4]>,
     /// Per validation: mission time it took, ms; per compared traverse:
     /// the RMSE between predicted and executed positions, m.
     pub validation_ms: Vec<u32>,
@@ -164,6 +226,13 @@ impl Exploration {
                 next_sample_ns: 0,
                 active: false,
             },
+            partial: Partial {
+                poses: heapless::Vec::new(),
+                predicted: Vec::with_capacity(PREDICTION_POINTS),
+                length_m: 0.0,
+                goal: [0.0; 3],
+            },
+            partial_scratch: Vec::with_capacity(PLAN_POSES),
             validation_ms: Vec::with_capacity(HISTORY),
             prediction_rmse_m: Vec::with_capacity(HISTORY),
             stranded: false,
@@ -464,12 +533,35 @@ impl Exploration {
     pub fn compare_next(&mut self, query: u64) {
         let Some(sim) = &self.sim else { return };
         let c = &mut self.comparison;
-        c.query = query;
         c.predicted.clear();
         c.predicted.extend_from_slice(sim.prediction());
-        c.executed.clear();
-        c.moving_since = None;
-        c.active = true;
+        c.begin(query);
+    }
+
+    /// The simulation refused `plan` (to `goal`): keep its well-driven
+    /// first part if it is the longest this query.
+    pub fn offer_partial(&mut self, plan: &[[f32; 4]], goal: [f64; 3]) {
+        let Some(sim) = self.sim.as_deref() else {
+            return;
+        };
+        self.partial_scratch.clear();
+        self.partial_scratch
+            .extend(plan.iter().map(|p| p.map(f64::from)));
+        let prediction = sim.prediction();
+        if let Some(prefix) =
+            driven_prefix(&self.partial_scratch, prediction, PrefixRule::default())
+        {
+            self.partial.offer(plan, prediction, prefix, goal);
+        }
+    }
+
+    /// The partial plan is handed over as plan `query`: compared with the
+    /// prediction up to its end.
+    pub fn compare_partial(&mut self, query: u64) {
+        let c = &mut self.comparison;
+        c.predicted.clear();
+        c.predicted.extend_from_slice(&self.partial.predicted);
+        c.begin(query);
     }
 
     /// Sample the real track of the plan being compared; at its end, the

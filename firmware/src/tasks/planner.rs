@@ -26,6 +26,7 @@ use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
 use speleo_exploration::{Mode, ReturnReason};
+use speleo_simulator::Outcome;
 
 use crate::bus::{Bus, PlanMsg};
 use crate::config::PlannerConfig;
@@ -111,6 +112,9 @@ enum Phase {
     Search,
     /// Driving the plan in the internal simulator.
     Validate,
+    /// No goal passed the simulation: driving the longest well-driven
+    /// first part of a refused plan.
+    Partial,
 }
 
 /// The query under way.
@@ -195,6 +199,7 @@ impl Phase {
             Phase::Prepare => Some(3),
             Phase::Search => Some(4),
             Phase::Validate => Some(5),
+            Phase::Partial => None,
         }
     }
 }
@@ -382,6 +387,7 @@ impl PlannerTask {
         }
         if let Some(ex) = &mut self.explore {
             ex.query_over();
+            ex.partial.clear();
             // Nothing driven from here: look farther next time (the way
             // to what is left may start outside the window).
             self.window_half_m = if ex.executing == self.counters.queries {
@@ -575,6 +581,13 @@ impl PlannerTask {
     /// Plan to the `k`-th goal in order (any heading at the goal: the next
     /// query starts from wherever the rover is by then).
     fn try_goal(&mut self, k: usize) -> Phase {
+        let partial = self
+            .explore
+            .as_ref()
+            .is_some_and(|ex| !ex.partial.poses.is_empty() && ex.mode() == Mode::Exploring);
+        if k >= self.query.order_len && partial {
+            return Phase::Partial;
+        }
         if k >= self.query.order_len {
             self.counters.no_path += 1;
             if let Some(ex) = &mut self.explore {
@@ -604,6 +617,40 @@ impl PlannerTask {
             return Phase::Idle;
         }
         Phase::Prepare
+    }
+
+    /// No goal of the query passed the simulation, but a refused plan's
+    /// first part was driven well: drive that.
+    fn drive_partial(&mut self, bus: &mut Bus, now: u64) {
+        let Some(ex) = self.explore.as_deref_mut() else {
+            self.end_query();
+            return;
+        };
+        ex.counters.partial_plans += 1;
+        tracing::debug!(
+            length_m = ex.partial.length_m,
+            goal_x = ex.partial.goal[0],
+            goal_y = ex.partial.goal[1],
+            "driving the part of a refused plan the simulation drove"
+        );
+        let msg = PlanMsg {
+            query: self.counters.queries,
+            cost_ms: 0,
+            eps: self.query.eps_milli as f32 / 1000.0,
+            optimal: false,
+            execute: true,
+            poses: ex.partial.poses.clone(),
+        };
+        self.counters.plans_published += 1;
+        ex.driving(msg.query);
+        ex.compare_partial(msg.query);
+        bus.exploration.goal = ex
+            .partial
+            .poses
+            .last()
+            .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64]);
+        bus.plan.publish(now, msg);
+        self.end_query();
     }
 
     /// No path to the goal tried: the next one, or the query is over.
@@ -798,6 +845,12 @@ impl PlannerTask {
         let at = self.query.order[self.query.tried].1;
         if ex.mode() == Mode::Exploring {
             ex.explorer.reject([at[0], at[1]]);
+            // A tip-over's run-up is no ground to stop on.
+            if v.outcome != Outcome::TippedOver {
+                if let Some(plan) = bus.plan.get() {
+                    ex.offer_partial(&plan.value.poses, at);
+                }
+            }
         }
         self.phase = self.try_goal(self.query.tried + 1);
     }
@@ -914,6 +967,7 @@ impl PlannerTask {
             }
             Phase::Search => self.search_step(bus, cx.time_ns, units),
             Phase::Validate => self.validate(bus, cx.time_ns, units as usize),
+            Phase::Partial => self.drive_partial(bus, cx.time_ns),
         }
         true
     }
@@ -1202,8 +1256,9 @@ mod tests {
     const LEDGE_M: f64 = 0.3;
 
     /// A 16 x 4 m corridor with a ledge across it at x = 10, seen densely
-    /// from three keyframes along it; the rover at (8, 2).
-    fn bus_before_a_ledge() -> Box<Bus> {
+    /// from three keyframes along it; the rover at (`rover_x`, 2). Closed,
+    /// a wall shuts the corridor's near end.
+    fn bus_before_a_ledge(rover_x: f64, closed: bool) -> Box<Bus> {
         use crate::keyframe_clouds::KeyframeClouds;
         use nalgebra::{Matrix3, Vector3};
         use speleo_slam::lie::Pose;
@@ -1219,6 +1274,11 @@ mod tests {
                         pts.push([x, y, ground + 0.05 * k as f64]);
                     }
                 }
+                if closed && i == 0 {
+                    for k in 1..20 {
+                        pts.push([0.0, y, 0.05 * k as f64]);
+                    }
+                }
                 if i == 200 {
                     // Its face.
                     let mut h = 0.05;
@@ -1229,7 +1289,7 @@ mod tests {
                 }
             }
         }
-        let mut bus = bus_with_map(&pts, [8.0, 2.0, 0.17]);
+        let mut bus = bus_with_map(&pts, [rover_x, 2.0, 0.17]);
         let sensors = [[4.0, 2.0, 0.8], [8.0, 2.0, 0.8], [12.0, 2.0, 1.1]];
         bus.keyframe_clouds = KeyframeClouds::new(sensors.len(), pts.len());
         for o in sensors {
@@ -1249,6 +1309,13 @@ mod tests {
     /// a worker core when `worker_units` > 0) until one is marked to be
     /// driven: the counters, the plan and the frame it came at.
     fn ledge_mission(worker_units: u32) -> (ExplorationCounters, PlanMsg, u64) {
+        ledge_mission_from(worker_units, bus_before_a_ledge(8.0, false))
+    }
+
+    fn ledge_mission_from(
+        worker_units: u32,
+        mut bus: Box<Bus>,
+    ) -> (ExplorationCounters, PlanMsg, u64) {
         // A planner told the rover steps up to 0.35 m, drawn toward the
         // far side of the ledge.
         let cfg = PlannerConfig {
@@ -1279,7 +1346,6 @@ mod tests {
         let mut t = PlannerTask::new(&cfg, &prims, 0.1, &[], false, 0.17)
             .unwrap_or_else(|e| panic!("{e}"))
             .with_exploration(ex);
-        let mut bus = bus_before_a_ledge();
         let mut frame = 0;
         for f in 0..400_000 {
             if let Some(s) = &sync {
@@ -1307,6 +1373,23 @@ mod tests {
         // The plan driven stays on the lower floor.
         for p in &plan.poses {
             assert!(p[0] < 9.6, "{p:?} climbs the ledge");
+        }
+    }
+
+    #[test]
+    fn when_every_goal_lies_past_a_ledge_the_part_of_the_way_the_simulation_drove_is_driven() {
+        // The near end shut: the only frontier is past the ledge, 7 m on.
+        let (c, plan, _) = ledge_mission_from(0, bus_before_a_ledge(3.0, true));
+        assert_eq!(c.validated, 0, "{c:?}");
+        assert!(c.rejected_by_sim >= 1, "{c:?}");
+        assert_eq!(c.partial_plans, 1, "{c:?}");
+        assert!(plan.execute, "{plan:?}");
+        // Toward the ledge, and stopping at least a metre short of its
+        // foot, where the simulated rover stalled.
+        let end = plan.poses.last().unwrap_or_else(|| panic!("no poses"));
+        assert!(end[0] > 5.0 && end[0] < 9.0, "{end:?}");
+        for p in &plan.poses {
+            assert!(p[0] < 9.0, "{p:?} too near the ledge");
         }
     }
 
