@@ -59,17 +59,32 @@ impl Trail {
     /// near): on a level over the track, the track below is not near.
     pub fn earliest_near(&self, at: [f64; 3], reach_m: f64) -> Option<usize> {
         let across = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
-        let dist = |p: &[f64; 3]| across(p).hypot(p[2] - at[2]);
         self.points
             .iter()
             .position(|p| across(p) <= reach_m && (p[2] - at[2]).abs() <= LEVEL_M)
-            .or_else(|| {
-                (0..self.points.len()).min_by(|&a, &b| {
-                    dist(&self.points[a])
-                        .total_cmp(&dist(&self.points[b]))
-                        .then(a.cmp(&b))
-                })
-            })
+            .or_else(|| self.nearest(at))
+    }
+
+    /// The most recent point within `reach_m` of `at` across and within
+    /// [`LEVEL_M`] of its height (the nearest in space when none is that
+    /// near). A way driven without planning starts here: the rover came
+    /// from it, whereas an earlier point beside it (on a ramp passing
+    /// over the rover's floor) may be out of its reach.
+    pub fn latest_near(&self, at: [f64; 3], reach_m: f64) -> Option<usize> {
+        let across = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
+        self.points
+            .iter()
+            .rposition(|p| across(p) <= reach_m && (p[2] - at[2]).abs() <= LEVEL_M)
+            .or_else(|| self.nearest(at))
+    }
+
+    fn nearest(&self, at: [f64; 3]) -> Option<usize> {
+        let dist = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]).hypot(p[2] - at[2]);
+        (0..self.points.len()).min_by(|&a, &b| {
+            dist(&self.points[a])
+                .total_cmp(&dist(&self.points[b]))
+                .then(a.cmp(&b))
+        })
     }
 
     /// Walking home from point `from`: the point `ahead_m` farther back
@@ -148,5 +163,33 @@ mod tests {
         assert_eq!(t.points()[over_start][2], 3.0);
         // On level 0 the earliest point is the start.
         assert_eq!(t.earliest_near([0.5, 0.0, 0.0], 2.0), Some(0));
+    }
+
+    #[test]
+    fn a_blind_retrace_starts_where_the_rover_came_from_not_on_a_ramp_beside_it() {
+        let mut t = Trail::new(1000, 1.0);
+        // Up a ramp along y = 0 to 0.75 m and back down it, then along the
+        // floor beside the ramp (y = 1.5) under its higher part.
+        for k in 0..=3 {
+            t.record([k as f64, 0.0, 0.25 * k as f64]);
+        }
+        for k in (0..3).rev() {
+            t.record([k as f64 + 0.01, 0.0, 0.25 * k as f64]);
+        }
+        for k in 0..=3 {
+            t.record([k as f64, 1.5, 0.0]);
+        }
+        let at = [3.0, 1.5, 0.0];
+        // Going home may cut across (it is planned and simulated first)...
+        let early = t.earliest_near(at, 2.0).expect("near");
+        assert!(t.points()[early][1] == 0.0, "{:?}", t.points()[early]);
+        // ...a blind retrace starts on the floor the rover drove.
+        let late = t.latest_near(at, 2.0).expect("near");
+        assert_eq!(t.points()[late], [3.0, 1.5, 0.0]);
+        // Far from every point: the nearest.
+        assert_eq!(
+            t.latest_near([50.0, 1.5, 0.0], 2.0),
+            Some(t.points().len() - 1)
+        );
     }
 }

@@ -181,7 +181,7 @@ pub struct Exploration {
     ended: u64,
     /// The second look has been taken (see [`Exploration::second_look`]).
     second_look_taken: bool,
-    /// Back-outs in a row (each stuck too): they alternate direction.
+    /// Escapes from one stuck place in a row (see [`ESCAPE_ROUND`]).
     escape_attempts: u32,
     /// Where the last retrace began, and whether it was driven backward.
     retraced_from: Option<([f64; 3], bool)>,
@@ -191,6 +191,9 @@ pub struct Exploration {
     last_tilt_stop: [f64; 3],
 }
 
+/// Escapes from a stuck place, in turn: a back-out backward, one forward,
+/// a retrace along the track forward, one backward.
+const ESCAPE_ROUND: u32 = 4;
 /// Tilt stops in a row without moving after which the rover is stranded.
 const TILT_STALLS_TO_STRAND: u32 = 6;
 /// Tilt stops this near each other count as one place, m.
@@ -302,8 +305,17 @@ impl Exploration {
     pub fn retrace(&mut self, bus: &mut Bus, now: u64, query: u64, ahead_m: f64) {
         self.stranded = false;
         if core::mem::take(&mut self.back_out) {
-            self.back_out(bus, now, query);
-            return;
+            // A back-out each way got nowhere: the track next, steered,
+            // forward then backward. A rover wedged on a rock pivots on it
+            // under straight back-outs (the lava tube's rover did so for a
+            // quarter of an hour, 77 m in), where the follower, turning it
+            // onto its track, drove it off.
+            let round = self.escape_attempts % ESCAPE_ROUND;
+            self.escape_attempts += 1;
+            if round < 2 {
+                self.back_out(bus, now, query, round == 1);
+                return;
+            }
         }
         self.backing_out = false;
         self.counters.retraces += 1;
@@ -311,7 +323,7 @@ impl Exploration {
             return;
         };
         let trail = self.explorer.trail().points();
-        let Some(from) = self.explorer.trail().earliest_near(pose, 2.0) else {
+        let Some(from) = self.explorer.trail().latest_near(pose, 2.0) else {
             return;
         };
         let mut msg = PlanMsg {
@@ -382,19 +394,14 @@ impl Exploration {
     /// Get off what held the rover: straight along its body axis, without
     /// turning (a rover sitting on a rock pivots on it when it turns),
     /// backward first and, when that fails too, forward, and so on.
-    fn back_out(&mut self, bus: &mut Bus, now: u64, query: u64) {
+    fn back_out(&mut self, bus: &mut Bus, now: u64, query: u64, forward: bool) {
         let Some(p) = bus.slam.get().map(|p| p.value) else {
             return;
         };
         self.counters.backed_out += 1;
         self.backing_out = true;
         let yaw = crate::tasks::control::yaw_of(p.orientation);
-        let sign = if self.escape_attempts % 2 == 1 {
-            -1.0
-        } else {
-            1.0
-        };
-        self.escape_attempts += 1;
+        let sign = if forward { -1.0 } else { 1.0 };
         tracing::debug!(
             x = p.position[0],
             y = p.position[1],

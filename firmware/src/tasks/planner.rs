@@ -1542,6 +1542,62 @@ mod tests {
     }
 
     #[test]
+    fn a_rover_stuck_after_a_back_out_each_way_retraces_its_track_steered_then_backs_out_again() {
+        use crate::bus::WheelCommand;
+        use speleo_control::StopReason;
+        let (mut ex, mut bus) = driven_from_x1_to_x5();
+        let straight = |p: &PlanMsg| p.poses.iter().all(|q| q[3].abs() < 1e-6);
+        let mut t = 4_100_000_000;
+        let mut escapes = Vec::new();
+        for query in 9..15 {
+            // Stuck where it stands, and the planner finds nothing.
+            bus.command.publish(
+                t,
+                WheelCommand {
+                    done: true,
+                    plan: query - 1,
+                    stop: StopReason::Stuck as u8,
+                    ..Default::default()
+                },
+            );
+            assert!(ex.ready(&bus, t));
+            ex.query_over();
+            assert!(ex.retrace_due());
+            ex.retrace(&mut bus, t + 50_000_000, query, 3.0);
+            let plan = published(&bus);
+            let last = plan.poses[plan.poses.len() - 1];
+            escapes.push(if last[0] > 5.5 {
+                "back-out forward"
+            } else if (last[0] - 4.0).abs() < 1e-3 && straight(&plan) {
+                "back-out backward"
+            } else if plan
+                .poses
+                .iter()
+                .all(|q| (q[3].abs() - core::f32::consts::PI).abs() < 1e-3)
+            {
+                "retrace forward"
+            } else if straight(&plan) && last[0] < 3.0 {
+                "retrace backward"
+            } else {
+                panic!("{plan:?}")
+            });
+            t += 100_000_000;
+        }
+        assert_eq!(
+            escapes,
+            [
+                "back-out backward",
+                "back-out forward",
+                "retrace forward",
+                "retrace backward",
+                "back-out backward",
+                "back-out forward"
+            ]
+        );
+        assert_eq!((ex.counters.backed_out, ex.counters.retraces), (4, 2));
+    }
+
+    #[test]
     fn a_retrace_drives_the_track_forward_and_backward_when_that_got_nowhere() {
         let (mut ex, mut bus) = driven_from_x1_to_x5();
         ex.no_start();
