@@ -596,7 +596,11 @@ impl GraphSlam {
         let mut near: HVec<(f64, usize), 64> = HVec::new();
         let mut best_loop: Option<(f64, usize)> = None;
         for k in (0..n - 1).rev() {
-            let d = (self.keyframe_pose(k).t - here).norm();
+            let t = self.keyframe_pose(k).t;
+            if on_another_level(&t, &here) {
+                continue;
+            }
+            let d = (t - here).norm();
             if n - k < self.p.loop_min_gap {
                 if d <= self.p.neighbor_radius_m && near.len() < near.capacity() {
                     let _ = near.push((d, k));
@@ -948,9 +952,41 @@ impl GraphSlam {
     }
 }
 
+/// Keyframes more than this over or under each other...
+const LEVEL_MIN_DZ_M: f64 = 1.0;
+/// ...and steeper than this from each other (rise over run; no rover
+/// drives a slope of 27 degrees) lie on different levels.
+const LEVEL_MIN_GRADE: f64 = 0.5;
+
+/// Whether keyframe positions `a` and `b` lie on different levels (a
+/// garage's floors, a passage over another), where they are never
+/// registered to each other: one level's floor and the underside of the
+/// slab over the level below are parallel planes a slab apart, and GICP
+/// pairs them. In the garage, level 1's keyframes registered to level 0's
+/// ones below them (nearest in 3D, 3 m down) and the map's level 1 sank
+/// 0.4 m, the slab's thickness and more.
+fn on_another_level(a: &Vector3<f64>, b: &Vector3<f64>) -> bool {
+    let dz = (a.z - b.z).abs();
+    let run = (a.x - b.x).hypot(a.y - b.y);
+    dz > LEVEL_MIN_DZ_M && dz > LEVEL_MIN_GRADE * run
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{interleave_stride, OdometryScale};
+    use super::{interleave_stride, on_another_level, OdometryScale};
+    use nalgebra::Vector3;
+
+    #[test]
+    fn keyframes_over_each_other_are_on_other_levels_along_a_ramp_they_are_not() {
+        let v = Vector3::new;
+        // A garage level over the one below, straight up or 4 m off.
+        assert!(on_another_level(&v(5.0, 2.0, 3.0), &v(5.0, 2.0, 0.0)));
+        assert!(on_another_level(&v(5.0, 2.0, 3.0), &v(9.0, 2.0, 0.0)));
+        // Along a 14-degree ramp, 8 m apart: 2 m of rise, one way.
+        assert!(!on_another_level(&v(0.0, 0.0, 0.0), &v(8.0, 0.0, 2.0)));
+        // A rough floor's bumps, however near.
+        assert!(!on_another_level(&v(0.0, 0.0, 0.0), &v(0.3, 0.0, 0.4)));
+    }
 
     #[test]
     fn the_odometry_scale_follows_the_registrations_and_ignores_outliers() {
