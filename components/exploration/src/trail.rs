@@ -58,10 +58,9 @@ impl Trail {
     /// [`LEVEL_M`] of its height (the nearest in space when none is that
     /// near): on a level over the track, the track below is not near.
     pub fn earliest_near(&self, at: [f64; 3], reach_m: f64) -> Option<usize> {
-        let across = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
         self.points
             .iter()
-            .position(|p| across(p) <= reach_m && (p[2] - at[2]).abs() <= LEVEL_M)
+            .position(|p| near(p, at, reach_m))
             .or_else(|| self.nearest(at))
     }
 
@@ -71,10 +70,9 @@ impl Trail {
     /// from it, whereas an earlier point beside it (on a ramp passing
     /// over the rover's floor) may be out of its reach.
     pub fn latest_near(&self, at: [f64; 3], reach_m: f64) -> Option<usize> {
-        let across = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]);
         self.points
             .iter()
-            .rposition(|p| across(p) <= reach_m && (p[2] - at[2]).abs() <= LEVEL_M)
+            .rposition(|p| near(p, at, reach_m))
             .or_else(|| self.nearest(at))
     }
 
@@ -113,6 +111,11 @@ impl Trail {
 /// Track points more than this over or under the rover are on another
 /// level (a garage's floor under its deck), m.
 pub const LEVEL_M: f64 = 1.0;
+
+/// Track point `p` lies within `reach_m` of `at` across, on its level.
+fn near(p: &[f64; 3], at: [f64; 3], reach_m: f64) -> bool {
+    (p[0] - at[0]).hypot(p[1] - at[1]) <= reach_m && (p[2] - at[2]).abs() <= LEVEL_M
+}
 
 #[cfg(test)]
 mod tests {
