@@ -15,7 +15,7 @@ use speleo_control::{
     AccelLimiter, FollowerParams, GroundProbe, PlanFollower, Probe, PurePursuit, SafetyMonitor,
     SkidSteer, StopReason, Twist,
 };
-use speleo_mapping::mls::{drop_at, ground_near, MlsMap};
+use speleo_mapping::mls::{drop_at, ground_near, MlsMap, Patch};
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::{Bus, WheelCommand};
@@ -136,6 +136,17 @@ pub struct MlsProbe<'a>(pub &'a MlsMap);
 /// Height band over the ground that the body sweeps, m.
 const BODY_BAND_M: (f32, f32) = (0.25, 0.7);
 
+/// A single return seen only from a sensor under it: no body obstacle
+/// for the monitor. Climbing a ramp, the rays that reach the slope ahead
+/// travel upward, and one stray return among them (a garage ramp, 0.33 m
+/// over its surface) stopped the rover halfway up for good. A real
+/// obstacle in the body band returns more than one point as the rover
+/// nears it, and the planner, which counts every point, draws the next
+/// plan.
+fn stray_from_below(p: &Patch) -> bool {
+    p.count <= 1 && !p.seen_from_above
+}
+
 impl GroundProbe for MlsProbe<'_> {
     fn probe(&self, x: f64, y: f64, z: f64, tol_m: f64) -> Probe {
         let (ix, iy) = self.0.cell_of(x, y);
@@ -147,7 +158,10 @@ impl GroundProbe for MlsProbe<'_> {
             return Probe::NoGround;
         };
         let (lo, hi) = (g + BODY_BAND_M.0, g + BODY_BAND_M.1);
-        if cell.iter().any(|p| p.max >= lo && p.min <= hi) {
+        if cell
+            .iter()
+            .any(|p| !stray_from_below(p) && p.max >= lo && p.min <= hi)
+        {
             Probe::Blocked
         } else {
             Probe::Ground
@@ -392,5 +406,23 @@ mod tests {
         assert!(e.reversed, "the last leg is driven backward");
         assert!((e.x - 2.5).abs() < 0.3, "ended at {}", e.x);
         assert!(e.yaw.abs() < 0.1, "it did not turn round: {}", e.yaw);
+    }
+
+    #[test]
+    fn one_return_from_below_does_not_block_the_body_but_two_or_one_from_above_do() {
+        let probe_after = |points: &[[f64; 3]], sensor_z: f64| {
+            let mut bus = bus_with_a_ledge();
+            let m = bus.surface.active();
+            bus.surface
+                .map_mut(m)
+                .insert_points_seen_from(points, sensor_z);
+            MlsProbe(bus.surface.map_mut(m)).probe(2.02, 2.02, 0.0, 0.2)
+        };
+        assert_eq!(probe_after(&[], 0.5), Probe::Ground);
+        let one = [[2.02, 2.02, 0.4]];
+        assert_eq!(probe_after(&one, 0.0), Probe::Ground, "a stray return");
+        assert_eq!(probe_after(&one, 0.6), Probe::Blocked, "seen from above");
+        let two = [[2.02, 2.02, 0.4], [2.03, 2.03, 0.42]];
+        assert_eq!(probe_after(&two, 0.0), Probe::Blocked, "two returns");
     }
 }
