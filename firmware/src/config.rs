@@ -950,6 +950,16 @@ mod tests {
     }
 
     #[test]
+    fn a_lower_body_clearance_alone_is_valid_with_the_default_step() {
+        // The default step (0.1) is 0.01 under a clearance of 0.11: valid,
+        // although 0.1 as f32 is a hair over it.
+        let c = Config::from_toml("[planner]\nground_clearance_m = 0.11\n").expect("read");
+        assert_eq!(c.planner.max_step_m, 0.1);
+        let e = Config::from_toml("[planner]\nground_clearance_m = 0.105\n").expect_err("refused");
+        assert!(e.to_string().contains("planner.max_step_m"), "{e}");
+    }
+
+    #[test]
     fn unknown_keys_are_named() {
         let e = Config::from_toml("[executive]\nminor_frame_ms = 10\n").expect_err("refused");
         let m = e.to_string();

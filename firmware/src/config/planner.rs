@@ -75,8 +75,8 @@ impl Default for PlannerConfig {
             initial_eps: 3.0,
             eps_step: 0.2,
             max_slope_deg: t.max_slope_deg,
-            max_step_m: t.max_step_m as f64,
-            ground_clearance_m: t.ground_clearance_m as f64,
+            max_step_m: decimal(t.max_step_m),
+            ground_clearance_m: decimal(t.ground_clearance_m),
             forward_speed_mps: s.forward_speed_mps,
             backward_speed_mps: s.backward_speed_mps,
             turn_speed_rad_s: s.turn_speed_rad_s,
@@ -87,6 +87,13 @@ impl Default for PlannerConfig {
             step_units: PlannerStepUnits::default(),
         }
     }
+}
+
+/// A length the traversability map keeps as `f32`, as the decimal it was
+/// written as (0.1, not 0.10000000149): defaults that print and compare
+/// as a user would write them.
+fn decimal(v: f32) -> f64 {
+    (v as f64 * 1e6).round() / 1e6
 }
 
 impl PlannerConfig {
@@ -163,11 +170,12 @@ impl PlannerConfig {
             0.69,
             "0.02..=0.69",
         )?;
+        // The bound is a difference of decimals: a micrometre of slack.
         range(
             "planner.max_step_m",
             self.max_step_m,
             0.01,
-            self.ground_clearance_m - 0.01,
+            self.ground_clearance_m - 0.01 + 1e-6,
             "0.01..=ground_clearance_m - 0.01",
         )?;
         for (k, v) in [
