@@ -15,7 +15,7 @@ use speleo_control::{
     AccelLimiter, FollowerParams, GroundProbe, PlanFollower, Probe, PurePursuit, SafetyMonitor,
     SkidSteer, StopReason, Twist,
 };
-use speleo_mapping::mls::{drop_at, ground_near, MlsMap, Patch};
+use speleo_mapping::mls::{drop_at, ground_near, MlsMap};
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::{Bus, WheelCommand};
@@ -133,19 +133,12 @@ pub fn tilt_deg_of(q: [f64; 4]) -> f64 {
 /// The MLS map as the safety monitor probes it.
 pub struct MlsProbe<'a>(pub &'a MlsMap);
 
-/// Height band over the ground that the body sweeps, m.
+/// Height band over the ground that the body sweeps, m: anything in it
+/// blocks but a stray return seen from below ([`Patch::stray_from_below`];
+/// the planner, which counts every point, draws the next plan).
+///
+/// [`Patch::stray_from_below`]: speleo_mapping::mls::Patch::stray_from_below
 const BODY_BAND_M: (f32, f32) = (0.25, 0.7);
-
-/// A single return seen only from a sensor under it: no body obstacle
-/// for the monitor. Climbing a ramp, the rays that reach the slope ahead
-/// travel upward, and one stray return among them (a garage ramp, 0.33 m
-/// over its surface) stopped the rover halfway up for good. A real
-/// obstacle in the body band returns more than one point as the rover
-/// nears it, and the planner, which counts every point, draws the next
-/// plan.
-fn stray_from_below(p: &Patch) -> bool {
-    p.count <= 1 && !p.seen_from_above
-}
 
 impl GroundProbe for MlsProbe<'_> {
     fn probe(&self, x: f64, y: f64, z: f64, tol_m: f64) -> Probe {
@@ -160,7 +153,7 @@ impl GroundProbe for MlsProbe<'_> {
         let (lo, hi) = (g + BODY_BAND_M.0, g + BODY_BAND_M.1);
         if cell
             .iter()
-            .any(|p| !stray_from_below(p) && p.max >= lo && p.min <= hi)
+            .any(|p| !p.stray_from_below() && p.max >= lo && p.min <= hi)
         {
             Probe::Blocked
         } else {
@@ -416,7 +409,7 @@ mod tests {
             bus.surface
                 .map_mut(m)
                 .insert_points_seen_from(points, sensor_z);
-            MlsProbe(bus.surface.map_mut(m)).probe(2.02, 2.02, 0.0, 0.2)
+            MlsProbe(bus.surface.serving()).probe(2.02, 2.02, 0.0, 0.2)
         };
         assert_eq!(probe_after(&[], 0.5), Probe::Ground);
         let one = [[2.02, 2.02, 0.4]];

@@ -82,6 +82,15 @@ impl Patch {
         }
     }
 
+    /// A single return seen only from a sensor under it: a stray, not an
+    /// obstacle one could meet. Climbing a ramp, the rays that reach the
+    /// slope ahead travel upward, and one such return 0.33 m over a garage
+    /// ramp stopped the rover halfway up for good; a real obstacle returns
+    /// more points as the rover nears it.
+    pub fn stray_from_below(&self) -> bool {
+        self.count <= 1 && !self.seen_from_above
+    }
+
     /// Whether this patch, only ever seen from below and wholly more than
     /// [`TOP_BAND_M`] under height `z`, says nothing of what is at `z`: a
     /// slab's underside seen from the floor beside it, whose top the rings
