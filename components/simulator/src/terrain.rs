@@ -7,6 +7,13 @@ use speleo_mapping::tsdf::{TsdfParams, TsdfVolume, Weighting};
 
 use crate::SimulatorParams;
 
+/// Blocks a tile's vertices can lie in: a tile spans two blocks (0.4 m
+/// at 5 cm voxels) and their upper neighbours each way, the box's height
+/// in blocks (up to 6 m at 5 cm voxels).
+const TILE_SLABS: usize = 3 * 3 * 16;
+/// Triangles reserved for a tile's mesh (a wall tile has ~600).
+const TILE_TRIANGLES: usize = 8192;
+
 pub(crate) struct Terrain {
     tsdf: TsdfVolume,
     buffers: MeshBuffers,
@@ -33,8 +40,12 @@ impl Terrain {
         .map_err(|e| e.to_string())?;
         Ok(Terrain {
             tsdf,
-            buffers: MeshBuffers::new(),
-            chunk: Mesh::default(),
+            buffers: MeshBuffers::with_capacity(p.max_blocks, TILE_SLABS, TILE_TRIANGLES),
+            chunk: Mesh {
+                vertices: Vec::with_capacity(TILE_TRIANGLES),
+                triangles: Vec::with_capacity(TILE_TRIANGLES),
+                surfaces: Vec::with_capacity(TILE_TRIANGLES),
+            },
             lo: [0.0; 3],
             hi: [0.0; 3],
             tile_m: p.tile_m,

@@ -13,17 +13,23 @@ const SIDE: usize = BLOCK_SIDE + 1;
 const GATHERED: usize = SIDE * SIDE * SIDE;
 
 /// The mesh and the scratch space of the extraction, kept by the caller:
-/// once they have grown to the volume's size, meshing again allocates
+/// once they have grown to the largest pass, meshing again allocates
 /// nothing.
 #[derive(Debug, Default)]
 pub struct MeshBuffers {
     /// The result of the last extraction.
     pub mesh: Mesh,
-    /// Per pool block, per voxel: the vertex on the lattice edge from the
-    /// voxel's centre towards +x, +y, +z; valid for the blocks whose stamp
-    /// is the current generation.
+    /// Per pool block: the pass that last made vertices on its edges and
+    /// its slab of `edge_vertices` in that pass.
+    slab_of: Vec<(u32, u32)>,
+    /// Per slab (a block the pass made vertices in, in the order it came
+    /// to them), per voxel: the vertex on the lattice edge from the
+    /// voxel's centre towards +x, +y, +z. A region of a few blocks needs
+    /// a few slabs, not one per block of the volume: meshing a 0.25 m tile
+    /// of a large volume once took scratch for every block (62 MiB).
     edge_vertices: Vec<[u32; 3]>,
-    stamps: Vec<u32>,
+    /// Slabs handed out in this pass.
+    slabs: usize,
     generation: u32,
 }
 
@@ -32,18 +38,50 @@ impl MeshBuffers {
         MeshBuffers::default()
     }
 
+    /// Buffers that mesh regions of a volume of up to `blocks` pool blocks
+    /// with vertices in up to `slabs` blocks, and meshes of up to
+    /// `triangles` triangles, without allocating.
+    pub fn with_capacity(blocks: usize, slabs: usize, triangles: usize) -> MeshBuffers {
+        let mut b = MeshBuffers::default();
+        b.slab_of.resize(blocks, (0, 0));
+        b.edge_vertices.reserve_exact(slabs * BLOCK_VOXELS);
+        b.mesh.triangles.reserve_exact(triangles);
+        // Marching cubes meshes have about half as many vertices as
+        // triangles; shared edges make it fewer.
+        b.mesh.vertices.reserve_exact(triangles);
+        b
+    }
+
     /// Readies the scratch space for `blocks` pool blocks and a new pass.
     fn begin(&mut self, blocks: usize) {
         self.mesh.clear();
-        if self.stamps.len() < blocks {
-            self.stamps.resize(blocks, 0);
-            self.edge_vertices.resize(blocks * BLOCK_VOXELS, [NONE; 3]);
+        if self.slab_of.len() < blocks {
+            self.slab_of.resize(blocks, (0, 0));
         }
+        self.slabs = 0;
         self.generation = self.generation.wrapping_add(1);
         if self.generation == 0 {
-            self.stamps.fill(0);
+            self.slab_of.fill((0, 0));
             self.generation = 1;
         }
+    }
+
+    /// The first edge-vertex entry of pool block `blk` in this pass, its
+    /// slab cleared and handed out on the first call.
+    fn slab(&mut self, blk: usize) -> usize {
+        let (pass, slab) = self.slab_of[blk];
+        if pass == self.generation {
+            return slab as usize * BLOCK_VOXELS;
+        }
+        let slab = self.slabs;
+        self.slabs += 1;
+        let range = slab * BLOCK_VOXELS..(slab + 1) * BLOCK_VOXELS;
+        if self.edge_vertices.len() < range.end {
+            self.edge_vertices.resize(range.end, [NONE; 3]);
+        }
+        self.edge_vertices[range.clone()].fill([NONE; 3]);
+        self.slab_of[blk] = (self.generation, slab as u32);
+        range.start
     }
 
     /// Bytes held by the buffers.
@@ -51,7 +89,7 @@ impl MeshBuffers {
         self.mesh.vertices.capacity() * 12
             + self.mesh.triangles.capacity() * 12
             + self.edge_vertices.capacity() * 12
-            + self.stamps.capacity() * 4
+            + self.slab_of.capacity() * 8
     }
 }
 
@@ -370,14 +408,10 @@ impl BlockPass<'_> {
         let Some(blk) = self.neighbours[which] else {
             return NONE;
         };
-        let blk = blk as usize;
         let buf = &mut *self.buf;
-        if buf.stamps[blk] != buf.generation {
-            buf.stamps[blk] = buf.generation;
-            buf.edge_vertices[blk * BLOCK_VOXELS..(blk + 1) * BLOCK_VOXELS].fill([NONE; 3]);
-        }
+        let first = buf.slab(blk as usize);
         let local = local_index(owner.map(|c| c as i32));
-        let slot = &mut buf.edge_vertices[blk * BLOCK_VOXELS + local][axis];
+        let slot = &mut buf.edge_vertices[first + local][axis];
         if *slot != NONE {
             return *slot;
         }
@@ -510,5 +544,59 @@ mod tests {
         let none = vol.mesh_region([f64::NAN; 3], [1.0; 3], &mut buf);
         assert_eq!(none.triangles, 0);
         assert!(buf.mesh.triangles.is_empty());
+    }
+    #[test]
+    fn a_small_region_of_a_large_volume_takes_scratch_for_its_blocks_only() {
+        // A floor at z = 0.05 m over 8 x 8 blocks (0.8 m each at 0.1 m).
+        let mut vol = TsdfVolume::new(TsdfParams {
+            voxel_size_m: 0.1,
+            max_blocks: 256,
+            ..TsdfParams::default()
+        })
+        .expect("valid params");
+        for x in -32..32 {
+            for y in -32..32 {
+                for z in -1..2 {
+                    let tsdf = (z as f32 + 0.5) * 0.1 - 0.05;
+                    vol.set_voxel([x, y, z], Voxel { tsdf, weight: 1.0 });
+                }
+            }
+        }
+        let mut buf = MeshBuffers::new();
+        let all = vol.mesh_all(&mut buf);
+        assert!(all.triangles > 4000, "{}", all.triangles);
+        let mut small = MeshBuffers::new();
+        // A quarter-metre tile: cubes of one block, vertices on its edges
+        // and its upper neighbours'.
+        let r = vol.mesh_region([0.0, 0.0, -0.5], [0.25, 0.25, 0.5], &mut small);
+        assert!(r.triangles > 0);
+        assert!(
+            small.edge_vertices.len() <= 4 * BLOCK_VOXELS,
+            "{} slabs for one block's cubes",
+            small.edge_vertices.len() / BLOCK_VOXELS
+        );
+        // The same triangles as the whole volume's mesh has there, and
+        // meshing the whole volume after the tile is unchanged.
+        let again = vol.mesh_all(&mut small);
+        assert_eq!(again, all);
+        assert_eq!(small.mesh, buf.mesh);
+    }
+
+    #[test]
+    fn buffers_made_with_capacity_mesh_a_region_without_growing() {
+        let mut vol = volume();
+        for x in -3..3 {
+            for y in -3..3 {
+                for z in -3..3 {
+                    let tsdf = (x * x + y * y + z * z) as f32 * 0.01 - 0.04;
+                    vol.set_voxel([x, y, z], Voxel { tsdf, weight: 1.0 });
+                }
+            }
+        }
+        let mut buf = MeshBuffers::with_capacity(64, 8, 1024);
+        let before = buf.memory_bytes();
+        let r = vol.mesh_region([-0.3; 3], [0.3; 3], &mut buf);
+        assert!(r.triangles > 0);
+        assert_eq!(buf.memory_bytes(), before);
     }
 }
