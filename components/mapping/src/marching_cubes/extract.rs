@@ -521,8 +521,9 @@ mod tests {
         assert!(seen.iter().all(|&s| s));
     }
 
-    #[test]
-    fn repeated_meshing_reuses_the_buffers_and_gives_the_same_mesh() {
+    /// A ball of radius 0.2 m (0.1 m voxels) round the origin, in blocks
+    /// either side of it.
+    fn ball() -> TsdfVolume {
         let mut vol = volume();
         for x in -3..3 {
             for y in -3..3 {
@@ -532,6 +533,12 @@ mod tests {
                 }
             }
         }
+        vol
+    }
+
+    #[test]
+    fn repeated_meshing_reuses_the_buffers_and_gives_the_same_mesh() {
+        let vol = ball();
         let mut buf = MeshBuffers::new();
         let a = vol.mesh_all(&mut buf);
         let first = buf.mesh.clone();
@@ -584,15 +591,7 @@ mod tests {
 
     #[test]
     fn buffers_made_with_capacity_mesh_a_region_without_growing() {
-        let mut vol = volume();
-        for x in -3..3 {
-            for y in -3..3 {
-                for z in -3..3 {
-                    let tsdf = (x * x + y * y + z * z) as f32 * 0.01 - 0.04;
-                    vol.set_voxel([x, y, z], Voxel { tsdf, weight: 1.0 });
-                }
-            }
-        }
+        let vol = ball();
         let mut buf = MeshBuffers::with_capacity(64, 8, 1024);
         let before = buf.memory_bytes();
         let r = vol.mesh_region([-0.3; 3], [0.3; 3], &mut buf);
