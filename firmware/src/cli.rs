@@ -21,6 +21,11 @@ pub struct Cli {
     /// Do not draw a progress bar.
     #[arg(long, global = true)]
     pub no_progress: bool,
+    /// Print a backtrace for every allocation of at least this many bytes
+    /// a task makes (which allocation made a run ask for more than its
+    /// memory budget).
+    #[arg(long, global = true, value_name = "BYTES")]
+    pub trace_allocations_over: Option<u64>,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -403,6 +408,7 @@ fn init_logging(verbose: u8) {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
+    speleo_scheduler::accounting::trace_allocations_over(cli.trace_allocations_over);
     let progress = !cli.no_progress;
     let result = match cli.command {
         Command::Sim(a) => modes::sim(a, progress),

@@ -255,11 +255,37 @@ fn help_explains_every_option() {
         "--report",
         "--config",
         "--route",
+        "--trace-allocations-over",
     ] {
         assert!(h.contains(opt), "{opt} missing from:\n{h}");
     }
     let h = text(&speleo(&["replay", "--help"]).stdout);
     assert!(h.contains("identical"), "{h}");
+}
+
+#[test]
+fn large_allocations_of_the_tasks_are_traced_with_their_slot_and_backtrace() {
+    let out = speleo(&[
+        "sim",
+        "--world",
+        "flat",
+        "--duration",
+        "5",
+        "--trace-allocations-over",
+        "65536",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let e = text(&out.stderr);
+    let traced = e
+        .lines()
+        .filter(|l| l.starts_with("allocation of "))
+        .count();
+    assert!(traced >= 1, "nothing traced:\n{e}");
+    assert!(e.contains(" in slot ") && e.contains("speleo"), "{e}");
+    // Not a number: refused with the option named.
+    let bad = speleo(&["sim", "--trace-allocations-over", "lots"]);
+    assert!(!bad.status.success());
+    assert!(text(&bad.stderr).contains("--trace-allocations-over"));
 }
 
 fn shared(rel: &str) -> Option<std::path::PathBuf> {

@@ -65,12 +65,52 @@ thread_local! {
 /// Wraps the system allocator and counts.
 pub struct AccountingAllocator;
 
+/// Allocations of at least this many bytes in a counted slot are traced
+/// (`u64::MAX`: none).
+static TRACE_OVER: AtomicU64 = AtomicU64::new(u64::MAX);
+/// Allocations traced so far, every thread.
+static TRACED: AtomicU64 = AtomicU64::new(0);
+
+thread_local! {
+    /// Set while a trace is written: its own allocations are not traced.
+    static TRACING: Cell<bool> = const { Cell::new(false) };
+}
+
+/// From now on, print the slot, the size and a backtrace to stderr for
+/// every allocation of at least `bytes` counted in a slot (`None`: stop).
+/// For finding which allocation made a task's run ask for more than its
+/// memory budget; the cost when off is one relaxed load per allocation.
+pub fn trace_allocations_over(bytes: Option<u64>) {
+    TRACE_OVER.store(bytes.unwrap_or(u64::MAX), Ordering::Relaxed);
+}
+
+/// Allocations traced since the start, every thread.
+pub fn traced_allocations() -> u64 {
+    TRACED.load(Ordering::Relaxed)
+}
+
+#[cold]
+fn trace(slot: usize, size: usize) {
+    if TRACING.try_with(|t| t.replace(true)).unwrap_or(true) {
+        return;
+    }
+    TRACED.fetch_add(1, Ordering::Relaxed);
+    eprintln!(
+        "allocation of {size} bytes in slot {slot}:\n{}",
+        std::backtrace::Backtrace::force_capture()
+    );
+    let _ = TRACING.try_with(|t| t.set(false));
+}
+
 #[inline]
 fn count(size: usize) {
     // try_with: during thread teardown the slots may be gone; then don't count.
     let _ = CURRENT.try_with(|c| {
         let slot = c.get() as usize;
         if slot < SLOTS {
+            if size as u64 >= TRACE_OVER.load(Ordering::Relaxed) {
+                trace(slot, size);
+            }
             let _ = COUNTS.try_with(|n| n[slot].set(n[slot].get() + 1));
             let _ = BYTES.try_with(|b| b[slot].set(b[slot].get() + size as u64));
         }
