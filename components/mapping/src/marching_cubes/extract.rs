@@ -442,9 +442,14 @@ mod tests {
     use std::collections::HashMap;
 
     fn volume() -> TsdfVolume {
+        volume_of(64)
+    }
+
+    /// A volume of 0.1 m voxels with room for `max_blocks` blocks.
+    fn volume_of(max_blocks: usize) -> TsdfVolume {
         TsdfVolume::new(TsdfParams {
             voxel_size_m: 0.1,
-            max_blocks: 64,
+            max_blocks,
             ..TsdfParams::default()
         })
         .expect("valid params")
@@ -552,15 +557,11 @@ mod tests {
         assert_eq!(none.triangles, 0);
         assert!(buf.mesh.triangles.is_empty());
     }
+
     #[test]
     fn a_small_region_of_a_large_volume_takes_scratch_for_its_blocks_only() {
         // A floor at z = 0.05 m over 8 x 8 blocks (0.8 m each at 0.1 m).
-        let mut vol = TsdfVolume::new(TsdfParams {
-            voxel_size_m: 0.1,
-            max_blocks: 256,
-            ..TsdfParams::default()
-        })
-        .expect("valid params");
+        let mut vol = volume_of(256);
         for x in -32..32 {
             for y in -32..32 {
                 for z in -1..2 {
