@@ -73,6 +73,31 @@ pub enum Command {
     /// task's max, p99 and p99.9 against its budget, pass or fail (p99.9
     /// within the budget). Exits with status 1 when a task fails.
     Wcet(WcetArgs),
+    /// Replay one validation of the internal simulator from the case file a
+    /// mission wrote (`speleo sim --dump-validations DIR`): prints its
+    /// verdict beside the mission's and where the rover tilted most; writes
+    /// the world it built and its track on request. Exits with status 1 when
+    /// the verdict differs from the mission's.
+    Validate(ValidateArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ValidateArgs {
+    /// The case (DIR/validation-NNNN.case).
+    #[arg(value_name = "CASE")]
+    pub case: PathBuf,
+    /// The mission's configuration (its `[simulator]`, `[control]` and
+    /// rover sections); the defaults when absent.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Write the simulated world (ground colliders, the pad and the strip
+    /// included) as binary PLY, map frame.
+    #[arg(long, value_name = "OUT.ply")]
+    pub mesh: Option<PathBuf>,
+    /// Write the simulated rover's pose at every physics step as CSV (t,
+    /// x, y, z, roll, pitch, yaw, tilt).
+    #[arg(long, value_name = "OUT.csv")]
+    pub track: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -364,6 +389,11 @@ pub struct SimArgs {
     /// the configuration's `sim.faults`.
     #[arg(long = "fault", value_name = "SPEC")]
     pub faults: Vec<String>,
+    /// Write every internal-simulator validation's inputs and verdict as
+    /// DIR/validation-NNNN.case, for `speleo validate`
+    /// (`simulator.dump_dir`).
+    #[arg(long, value_name = "DIR")]
+    pub dump_validations: Option<PathBuf>,
     #[command(flatten)]
     pub out: Outputs,
 }
@@ -430,6 +460,7 @@ pub fn main() -> ExitCode {
             progress,
         ),
         Command::Mesh(a) => modes::mesh(a, progress),
+        Command::Validate(a) => modes::validate(a),
     };
     match result {
         Ok(code) => code,

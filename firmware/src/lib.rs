@@ -22,4 +22,5 @@ pub mod slam_figures;
 pub mod surface_maps;
 pub mod tasks;
 pub mod tools;
+pub mod validation_dump;
 pub mod wcet;

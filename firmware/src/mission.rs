@@ -290,7 +290,7 @@ fn follower(cfg: &Config) -> PurePursuit {
 
 /// The internal simulator: the simulated rover's build, the control
 /// task's follower and limits, `[simulator]`'s world and judgement.
-fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
+pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
     let s = &cfg.simulator;
     let c = &cfg.control;
     let r = &cfg.rover;
@@ -411,6 +411,11 @@ pub fn run<C: FrameClock>(
                 .map_err(|e| MissionError::Planner(format!("the simulator's worker: {e}")))?;
                 worker_sync = Some(w.sync());
                 ex = ex.with_worker(w);
+            }
+            if let Some(dir) = &cfg.simulator.dump_dir {
+                let dump = crate::validation_dump::ValidationDump::new(dir)
+                    .map_err(MissionError::Planner)?;
+                ex = ex.with_dump(dump);
             }
         }
         t_plan = t_plan.with_exploration(ex);

@@ -18,7 +18,7 @@ use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
 
 use crate::cli::{
     DecodeCommand, G2oArgs, MeshArgs, Outputs, Pcap2mcapArgs, RegisterArgs, ReplayArgs, RunArgs,
-    SimArgs, WorldExportArgs,
+    SimArgs, ValidateArgs, WorldExportArgs,
 };
 use crate::config::Config;
 use crate::faults::inject::{FaultClock, FaultyHardware};
@@ -317,6 +317,9 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         cfg.exploration.enabled = false;
     }
     cfg.sim.faults.extend(a.faults.iter().cloned());
+    if let Some(d) = &a.dump_validations {
+        cfg.simulator.dump_dir = Some(d.clone());
+    }
     let result = simulate(&mut cfg, &a.out, progress)?;
     write_report(a.out.report.as_deref(), "sim", &result, None)?;
     if let Some(path) = &a.trajectory {
@@ -838,6 +841,77 @@ pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
         w.start[3].to_degrees()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
+    let cfg = match &a.config {
+        Some(p) => Config::load(p)?,
+        None => Config::default(),
+    };
+    cfg.validate()?;
+    let case = crate::tools::validate::read_case(&a.case)?;
+    let create = |p: &Path| {
+        std::fs::File::create(p)
+            .map(std::io::BufWriter::new)
+            .map_err(|e| format!("cannot create {}: {e}", p.display()))
+    };
+    let mut track = a.track.as_deref().map(create).transpose()?;
+    let mut mesh = a.mesh.as_deref().map(create).transpose()?;
+    let r = crate::tools::validate::replay(
+        case,
+        crate::mission::simulator_params(&cfg),
+        track.as_mut().map(|w| w as &mut dyn std::io::Write),
+        mesh.as_mut().map(|w| w as &mut dyn std::io::Write),
+    )?;
+    for w in [track.as_mut(), mesh.as_mut()].into_iter().flatten() {
+        std::io::Write::flush(w)?;
+    }
+    let c = &r.case;
+    let length: f64 = c
+        .plan
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    let [x, y, z, yaw] = c.start;
+    println!(
+        "case: start ({x:.2}, {y:.2}, {z:.2}) heading {:.1} deg, plan {} poses {length:.2} m, \
+         {} keyframes, {} points read",
+        yaw.to_degrees(),
+        c.plan.len(),
+        c.keyframes.len(),
+        c.points()
+    );
+    let show = |v: &speleo_simulator::Verdict| {
+        format!(
+            "{:?} after {:.2} s driving, {:.2} m from the goal",
+            v.outcome, v.drive_s, v.goal_error_m
+        )
+    };
+    println!(
+        "on board: {}",
+        c.verdict
+            .as_ref()
+            .map_or("no verdict recorded".into(), show)
+    );
+    println!(
+        "replayed: {} ({} physics steps, {} triangles, {:.0} ms)",
+        show(&r.verdict),
+        r.physics_steps,
+        r.triangles,
+        r.wall_ms
+    );
+    let [tx, ty, tz] = r.max_tilt_at;
+    println!(
+        "most tilt {:.1} deg at ({tx:.2}, {ty:.2}, {tz:.2})",
+        r.max_tilt_deg
+    );
+    if r.same_as_on_board() {
+        println!("same verdict as on board");
+        Ok(ExitCode::SUCCESS)
+    } else {
+        println!("the verdict differs from the mission's");
+        Ok(ExitCode::from(1))
+    }
 }
 
 pub fn g2o(a: G2oArgs) -> Result<ExitCode, Error> {

@@ -288,6 +288,47 @@ fn large_allocations_of_the_tasks_are_traced_with_their_slot_and_backtrace() {
     assert!(text(&bad.stderr).contains("--trace-allocations-over"));
 }
 
+#[test]
+fn a_dumped_validation_replays_to_the_verdict_the_mission_got() {
+    let d = tempfile::tempdir().expect("tmp");
+    let dir = d.path().join("cases");
+    let dirs = dir.to_str().expect("utf-8");
+    let out = speleo(&[
+        "sim",
+        "--world",
+        "flat",
+        "--duration",
+        "20",
+        "--dump-validations",
+        dirs,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let case = dir.join("validation-0001.case");
+    assert!(case.exists(), "{}", text(&out.stderr));
+    let (mesh, track) = (d.path().join("w.ply"), d.path().join("t.csv"));
+    let r = speleo(&[
+        "validate",
+        case.to_str().expect("utf-8"),
+        "--mesh",
+        mesh.to_str().expect("utf-8"),
+        "--track",
+        track.to_str().expect("utf-8"),
+    ]);
+    let o = text(&r.stdout);
+    assert!(r.status.success(), "{o}{}", text(&r.stderr));
+    assert!(o.contains("same verdict as on board"), "{o}");
+    assert!(o.contains("replayed: Reached"), "{o}");
+    let ply = std::fs::read(&mesh).expect("mesh");
+    assert!(ply.starts_with(b"ply\n"), "a PLY");
+    let rows = std::fs::read_to_string(&track).expect("track");
+    assert!(rows.starts_with("t_s,x_m,y_m,z_m"), "{rows:.80}");
+    assert!(rows.lines().count() > 100, "a row a physics step");
+    // Anything else is refused with the reason.
+    let bad = speleo(&["validate", mesh.to_str().expect("utf-8")]);
+    assert!(!bad.status.success());
+    assert!(text(&bad.stderr).contains("not a validation case"));
+}
+
 fn shared(rel: &str) -> Option<std::path::PathBuf> {
     speleo_hal::shared_data::path(rel)
 }

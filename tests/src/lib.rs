@@ -43,6 +43,7 @@ pub fn sim_with_trajectory(
             trajectory: trajectory.map(Path::to_path_buf),
             plot: None,
             faults: Vec::new(),
+            dump_validations: None,
             out: Outputs {
                 record: record.map(Path::to_path_buf),
                 report: report.map(Path::to_path_buf),

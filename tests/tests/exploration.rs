@@ -26,6 +26,7 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
             trajectory: None,
             plot: Some(plot.clone()),
             faults: Vec::new(),
+            dump_validations: None,
             out: Outputs {
                 report: Some(report.clone()),
                 ..Outputs::default()

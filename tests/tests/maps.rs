@@ -89,6 +89,7 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
             trajectory: Some(trajectory.clone()),
             plot: None,
             faults: Vec::new(),
+            dump_validations: None,
             out: Outputs {
                 record: Some(log.clone()),
                 report: Some(report.clone()),

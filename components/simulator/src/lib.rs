@@ -15,6 +15,7 @@
 //! Everything runs in bounded slices ([`InternalSim::step`]) so the
 //! executive can run it as anytime work.
 
+mod case;
 mod params;
 mod prediction;
 mod prefix;
@@ -22,6 +23,7 @@ mod ribbon;
 mod run;
 mod terrain;
 
+pub use case::{CaseError, RecordedKeyframe, RecordingClouds, ValidationCase};
 pub use params::SimulatorParams;
 pub use prediction::{rmse_at_equal_times, Prediction, PREDICTION_POINTS};
 pub use prefix::{driven_prefix, Prefix, PrefixRule};

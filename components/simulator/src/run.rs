@@ -263,6 +263,18 @@ impl InternalSim {
         self.terrain.triangles
     }
 
+    /// The simulated rover's state after the last physics step, once it
+    /// has been put down.
+    pub fn rover_state(&self) -> Option<&speleo_hal::sim::BodyState> {
+        self.rover.as_deref().map(PhysicsRover::state)
+    }
+
+    /// The world built for this validation (the ground colliders'
+    /// triangles, pad and strip included), once the rover is put down.
+    pub fn world_mesh(&self) -> Option<Mesh> {
+        self.rover.as_deref().map(PhysicsRover::ground_mesh)
+    }
+
     pub fn memory_bytes(&self) -> usize {
         self.terrain.memory_bytes()
     }

@@ -36,6 +36,11 @@ pub struct SimulatorConfig {
     /// rover reaches a pocket 95 m in that it cannot climb out of (see
     /// the simulator's README).
     pub worker_units: u32,
+    /// Write every validation's inputs and verdict to this folder as
+    /// validation-NNNN.case, for `speleo validate` (`speleo sim
+    /// --dump-validations`). A debugging aid: files written from the
+    /// planner task. Off by default.
+    pub dump_dir: Option<std::path::PathBuf>,
 }
 
 impl Default for SimulatorConfig {
@@ -51,6 +56,7 @@ impl Default for SimulatorConfig {
             tip_over_deg: p.tip_over_deg,
             stuck_after_s: p.stuck_after_s,
             worker_units: 0,
+            dump_dir: None,
         }
     }
 }

@@ -11,6 +11,7 @@ use speleo_simulator::{
 };
 
 use crate::tasks::sim_worker::SimWorker;
+use crate::validation_dump::ValidationDump;
 use speleo_slam::lie::Pose;
 
 use crate::bus::{Bus, ExplorationPhase, ExplorationStatus, PlanMsg, PLAN_POSES};
@@ -155,6 +156,8 @@ pub struct Exploration {
     pub sim: Option<Box<InternalSim>>,
     /// The core of its own the simulator does most of its work on.
     pub worker: Option<SimWorker>,
+    /// Every validation's inputs written to files (`[simulator] dump_dir`).
+    pub dump: Option<ValidationDump>,
     pub mount: Pose,
     /// When the validation under way began.
     pub validation_began_ns: u64,
@@ -219,6 +222,7 @@ impl Exploration {
             counters: ExplorationCounters::default(),
             sim: None,
             worker: None,
+            dump: None,
             mount: Pose::identity(),
             validation_began_ns: 0,
             comparison: Comparison {
@@ -441,6 +445,12 @@ impl Exploration {
     /// Do the simulator's work on `worker` (but for the clouds' integration).
     pub fn with_worker(mut self, worker: SimWorker) -> Self {
         self.worker = Some(worker);
+        self
+    }
+
+    /// Write every validation's inputs with `dump`.
+    pub fn with_dump(mut self, dump: ValidationDump) -> Self {
+        self.dump = Some(dump);
         self
     }
 

@@ -794,7 +794,10 @@ impl PlannerTask {
             .poses
             .iter()
             .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64, p[3] as f64]);
-        sim.begin([x, y, z, self.query.yaw], poses);
+        sim.begin([x, y, z, self.query.yaw], poses.clone());
+        if let Some(d) = &ex.dump {
+            d.begin([x, y, z, self.query.yaw], poses);
+        }
         ex.validation_began_ns = now;
         // The old world's teardown needs no clouds: on the worker already.
         ex.sim_lend();
@@ -813,7 +816,10 @@ impl PlannerTask {
         };
         let offloaded = ex.worker.is_some();
         let mount = ex.mount;
+        // Out of `ex` while the simulator is borrowed from it.
+        let mut dump = ex.dump.take();
         let Some(sim) = ex.sim_home() else {
+            ex.dump = dump;
             self.end_query();
             return;
         };
@@ -822,16 +828,30 @@ impl PlannerTask {
                 clouds: &bus.keyframe_clouds,
                 mount: &mount,
             };
-            sim.step(&clouds, units)
+            match &dump {
+                Some(d) => sim.step(
+                    &speleo_simulator::RecordingClouds {
+                        inner: &clouds,
+                        case: &d.case,
+                    },
+                    units,
+                ),
+                None => sim.step(&clouds, units),
+            }
         } else {
             sim.verdict()
         };
         let Some(v) = verdict else {
+            ex.dump = dump;
             ex.sim_lend();
             return;
         };
         let end = sim.prediction().last().copied().unwrap_or([f64::NAN; 3]);
         ex.record_verdict(v.outcome, now);
+        if let Some(d) = &mut dump {
+            d.finish(ex.counters.validations, v);
+        }
+        ex.dump = dump;
         tracing::debug!(outcome = ?v.outcome, drive_s = v.drive_s, goal_error_m = v.goal_error_m, start_z = self.query.rover[2], end_x = end[0], end_y = end[1], end_z = end[2], "simulated");
         if v.success() {
             let (best, optimal) = self.query.best;

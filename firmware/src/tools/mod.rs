@@ -10,5 +10,6 @@ pub mod pcap2mcap;
 pub mod plan;
 pub mod plan_world;
 pub mod register;
+pub mod validate;
 
 pub type Error = Box<dyn std::error::Error>;

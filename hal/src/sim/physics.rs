@@ -292,6 +292,32 @@ impl PhysicsRover {
         &self.p
     }
 
+    /// The ground the rover drives on, as the physics holds it (every
+    /// ground collider's triangles, in world coordinates): what the
+    /// internal simulator built, to look at.
+    pub fn ground_mesh(&self) -> Mesh {
+        let mut out = Mesh::default();
+        for &h in &self.ground {
+            let Some(c) = self.world.colliders.get(h) else {
+                continue;
+            };
+            let Some(t) = c.shape().as_trimesh() else {
+                continue;
+            };
+            let pose = c.position();
+            let base = out.vertices.len() as u32;
+            for v in t.vertices() {
+                let w = pose * *v;
+                out.vertices.push([w.x, w.y, w.z]);
+            }
+            for tri in t.indices() {
+                out.triangles.push(tri.map(|i| i + base));
+                out.surfaces.push(Surface::Rock);
+            }
+        }
+        out
+    }
+
     /// The state after the last step.
     pub fn state(&self) -> &BodyState {
         &self.state

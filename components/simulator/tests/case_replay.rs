@@ -1,0 +1,154 @@
+//! A validation recorded as a case file replays to the same verdict and
+//! prediction, and a damaged case file is refused with a reason.
+
+use std::cell::RefCell;
+
+use speleo_simulator::{
+    CaseError, CloudSource, InternalSim, Outcome, RecordingClouds, SimulatorParams, ValidationCase,
+};
+
+/// Ground at 0 with a 0.45 m ledge at x = 2 (refused) seen from sensors
+/// 1 m over it, with the ledge's face.
+struct Ledge {
+    origins: Vec<[f64; 3]>,
+    points: Vec<[f64; 3]>,
+}
+
+fn z(x: f64) -> f64 {
+    if x > 2.0 {
+        0.45
+    } else {
+        0.0
+    }
+}
+
+impl Ledge {
+    fn new() -> Ledge {
+        let mut points = Vec::new();
+        for i in 0..160 {
+            let x = -2.0 + 0.05 * i as f64;
+            for j in 0..60 {
+                let y = -1.5 + 0.05 * j as f64;
+                points.push([x, y, z(x)]);
+                let mut h = 0.05;
+                while (x - 2.0).abs() < 0.03 && h < 0.45 {
+                    points.push([2.0, y, h]);
+                    h += 0.05;
+                }
+            }
+        }
+        Ledge {
+            origins: vec![[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [40.0, 0.0, 1.0]],
+            points,
+        }
+    }
+}
+
+impl CloudSource for Ledge {
+    fn keyframes(&self) -> usize {
+        self.origins.len()
+    }
+    fn origin(&self, k: usize) -> Option<[f64; 3]> {
+        self.origins.get(k).copied()
+    }
+    fn points(&self, _k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
+        out.clear();
+        let to = (from + n).min(self.points.len());
+        out.extend_from_slice(&self.points[from.min(to)..to]);
+        to < self.points.len()
+    }
+}
+
+fn plan() -> Vec<[f64; 4]> {
+    (0..=30)
+        .map(|i| [0.1 * i as f64, 0.0, z(0.1 * i as f64), 0.0])
+        .collect()
+}
+
+fn start() -> [f64; 4] {
+    [0.0, 0.0, SimulatorParams::default().base_height_m, 0.0]
+}
+
+/// A validation's outcome, predicted track and driving time.
+type Run = (Outcome, Vec<[f64; 3]>, f64);
+
+fn validate(sim: &mut InternalSim, clouds: &impl CloudSource) -> Run {
+    sim.begin(start(), plan());
+    let mut steps = 0;
+    let v = loop {
+        if let Some(v) = sim.step(clouds, 13) {
+            break v;
+        }
+        steps += 1;
+        assert!(steps < 2_000_000, "no verdict");
+    };
+    (v.outcome, sim.prediction().to_vec(), v.drive_s)
+}
+
+/// The ledge validated through the recorder, and the case it wrote.
+fn recorded() -> (Run, Vec<u8>) {
+    let scans = Ledge::new();
+    let case = RefCell::new(ValidationCase::default());
+    case.borrow_mut().begin(start(), plan());
+    let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+    let got = {
+        let rec = RecordingClouds {
+            inner: &scans,
+            case: &case,
+        };
+        validate(&mut sim, &rec)
+    };
+    let mut case = case.into_inner();
+    case.verdict = sim.verdict();
+    let mut bytes = Vec::new();
+    case.write(&mut bytes).expect("write");
+    (got, bytes)
+}
+
+#[test]
+fn a_recorded_validation_replays_to_the_same_verdict_and_prediction() {
+    let (live, bytes) = recorded();
+    assert_ne!(live.0, Outcome::Reached, "the ledge is refused");
+    let case = ValidationCase::read(&mut bytes.as_slice()).expect("read");
+    assert_eq!(case.plan, plan());
+    assert_eq!(case.start, start());
+    assert_eq!(case.verdict.map(|v| v.outcome), Some(live.0));
+    assert_eq!(case.keyframes.len(), 3);
+    assert!(
+        case.keyframes[2].points.is_empty(),
+        "the keyframe 40 m off is not read, only its origin"
+    );
+    assert_eq!(case.points(), 2 * Ledge::new().points.len());
+    let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+    let replayed = validate(&mut sim, &case);
+    assert_eq!(replayed.0, live.0);
+    assert_eq!(replayed.1, live.1, "the same predicted track");
+    assert_eq!(replayed.2.to_bits(), live.2.to_bits());
+    let world = sim.world_mesh().expect("a world");
+    assert!(world.triangle_count() > 100, "{}", world.triangle_count());
+    assert!(sim.rover_state().is_some());
+}
+
+#[test]
+fn a_damaged_case_is_refused_with_its_reason() {
+    let (_, bytes) = recorded();
+    let cut = ValidationCase::read(&mut &bytes[..bytes.len() - 5]).expect_err("refused");
+    assert!(matches!(cut, CaseError::Io(_)), "{cut}");
+    assert!(cut.to_string().contains("cut short"), "{cut}");
+    let not = ValidationCase::read(&mut &b"PLY\nformat"[..]).expect_err("refused");
+    assert!(matches!(not, CaseError::NotACase), "{not}");
+    let mut newer = bytes.clone();
+    newer[8] = 9;
+    let v = ValidationCase::read(&mut newer.as_slice()).expect_err("refused");
+    assert!(matches!(v, CaseError::Version(9)), "{v}");
+    // The plan's pose count, just after the magic, version and start.
+    let mut huge = bytes.clone();
+    huge[44..48].copy_from_slice(&u32::MAX.to_le_bytes());
+    let h = ValidationCase::read(&mut huge.as_slice()).expect_err("refused");
+    assert!(matches!(h, CaseError::Count { .. }), "{h}");
+    let mut outcome = bytes;
+    let at = 48 + plan().len() * 32;
+    outcome[at] = 77;
+    let o = ValidationCase::read(&mut outcome.as_slice()).expect_err("refused");
+    assert!(matches!(o, CaseError::Outcome(77)), "{o}");
+}

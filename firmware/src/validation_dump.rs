@@ -1,0 +1,70 @@
+//! `[simulator] dump_dir` (`speleo sim --dump-validations DIR`): every
+//! validation's inputs (start, plan, the keyframe clouds as the simulator
+//! read them) and the verdict written as DIR/validation-NNNN.case, for
+//! `speleo validate` to replay one away from the mission. A debugging aid:
+//! it allocates and writes files from the planner task, so it is off on
+//! a flight.
+
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
+
+use speleo_simulator::{ValidationCase, Verdict};
+
+pub struct ValidationDump {
+    dir: PathBuf,
+    /// The validation under way, filled as the simulator reads the clouds.
+    pub case: RefCell<ValidationCase>,
+    pub written: u64,
+    pub failed: u64,
+}
+
+impl ValidationDump {
+    /// Dumps into `dir`, made if missing.
+    pub fn new(dir: &Path) -> Result<Self, String> {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("the validation dump folder {}: {e}", dir.display()))?;
+        Ok(ValidationDump {
+            dir: dir.to_path_buf(),
+            case: RefCell::new(ValidationCase::default()),
+            written: 0,
+            failed: 0,
+        })
+    }
+
+    pub fn begin(&self, start: [f64; 4], plan: impl IntoIterator<Item = [f64; 4]>) {
+        self.case.borrow_mut().begin(start, plan);
+    }
+
+    /// The verdict is in: the case written as validation `index` (the
+    /// mission's count, from 1). A failed write is logged and counted;
+    /// the mission goes on.
+    pub fn finish(&mut self, index: u64, verdict: Verdict) {
+        let path = self.dir.join(format!("validation-{index:04}.case"));
+        let mut case = self.case.borrow_mut();
+        case.verdict = Some(verdict);
+        let written = std::fs::File::create(&path).and_then(|f| {
+            let mut w = std::io::BufWriter::new(f);
+            case.write(&mut w)?;
+            std::io::Write::flush(&mut w)
+        });
+        match written {
+            Ok(()) => {
+                self.written += 1;
+                tracing::info!(
+                    outcome = ?verdict.outcome,
+                    keyframes = case.keyframes.len(),
+                    points = case.points(),
+                    "validation {index}'s inputs written to {}",
+                    path.display()
+                );
+            }
+            Err(e) => {
+                self.failed += 1;
+                tracing::warn!(
+                    "validation {index}'s inputs not written to {}: {e}",
+                    path.display()
+                );
+            }
+        }
+    }
+}
