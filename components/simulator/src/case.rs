@@ -247,13 +247,17 @@ impl CloudSource for ValidationCase {
 }
 
 /// Another source's clouds, each answer also written into `case`: the
-/// keyframe count, the origins and the points as the simulator read them.
-/// (A keyframe whose pose SLAM replaced between two of its slices keeps
-/// the last origin; the replay's verdict then says whether that
-/// mattered.)
+/// keyframe count, the origins and the points as the simulator read them,
+/// but those outside `keep` ([`crate::InternalSim::integrated_box`]),
+/// which it drops before integrating (a case of the garage is then ~2 MB,
+/// not 35). The integration is point by point, so fewer points a slice
+/// change nothing. (A keyframe whose pose SLAM replaced between two of
+/// its slices keeps the last origin; the replay's verdict then says
+/// whether that mattered.)
 pub struct RecordingClouds<'a, C: CloudSource> {
     pub inner: &'a C,
     pub case: &'a RefCell<ValidationCase>,
+    pub keep: ([f64; 3], [f64; 3]),
 }
 
 impl<C: CloudSource> CloudSource for RecordingClouds<'_, C> {
@@ -275,9 +279,12 @@ impl<C: CloudSource> CloudSource for RecordingClouds<'_, C> {
     fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
         let more = self.inner.points(k, from, n, out);
         if let Some(kf) = self.case.borrow_mut().keyframes.get_mut(k) {
-            // Slices come in order from 0; a repeated slice replaces.
-            kf.points.truncate(from);
-            kf.points.extend_from_slice(out);
+            if from == 0 {
+                kf.points.clear();
+            }
+            let (lo, hi) = self.keep;
+            let inside = |p: &&[f64; 3]| (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a]);
+            kf.points.extend(out.iter().filter(inside));
         }
         more
     }

@@ -263,6 +263,12 @@ impl InternalSim {
         self.terrain.triangles
     }
 
+    /// The box whose points the validation under way integrates (from
+    /// [`InternalSim::begin`]): the rest of the clouds is dropped unread.
+    pub fn integrated_box(&self) -> ([f64; 3], [f64; 3]) {
+        self.terrain.grown(self.bounds.0, self.bounds.1)
+    }
+
     /// The simulated rover's state after the last physics step, once it
     /// has been put down.
     pub fn rover_state(&self) -> Option<&speleo_hal::sim::BodyState> {

@@ -74,10 +74,20 @@ impl Terrain {
     /// Integrate the points of `points` inside the box (with a voxel's
     /// margin) seen from `origin`; the number integrated.
     pub fn integrate(&mut self, origin: [f64; 3], points: &mut Vec<[f64; 3]>) -> u64 {
-        let m = 2.0 * self.tsdf.voxel_size();
-        let (lo, hi) = (self.lo, self.hi);
-        points.retain(|p| (0..3).all(|k| p[k] >= lo[k] - m && p[k] <= hi[k] + m));
+        let (lo, hi) = self.integrated_box();
+        points.retain(|p| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]));
         self.tsdf.integrate(origin, points).integrated
+    }
+
+    /// The box (with a voxel's margin) whose points are integrated.
+    pub fn integrated_box(&self) -> ([f64; 3], [f64; 3]) {
+        self.grown(self.lo, self.hi)
+    }
+
+    /// The box `lo..hi` with the integration's margin.
+    pub fn grown(&self, lo: [f64; 3], hi: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let m = 2.0 * self.tsdf.voxel_size();
+        (lo.map(|v| v - m), hi.map(|v| v + m))
     }
 
     /// The highest seen ground in the column at `x`, `y` between `top`

@@ -74,6 +74,11 @@ type Run = (Outcome, Vec<[f64; 3]>, f64);
 
 fn validate(sim: &mut InternalSim, clouds: &impl CloudSource) -> Run {
     sim.begin(start(), plan());
+    drive(sim, clouds)
+}
+
+/// The validation begun in `sim` to its verdict.
+fn drive(sim: &mut InternalSim, clouds: &impl CloudSource) -> Run {
     let mut steps = 0;
     let v = loop {
         if let Some(v) = sim.step(clouds, 13) {
@@ -91,12 +96,14 @@ fn recorded() -> (Run, Vec<u8>) {
     let case = RefCell::new(ValidationCase::default());
     case.borrow_mut().begin(start(), plan());
     let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+    sim.begin(start(), plan());
     let got = {
         let rec = RecordingClouds {
             inner: &scans,
             case: &case,
+            keep: sim.integrated_box(),
         };
-        validate(&mut sim, &rec)
+        drive(&mut sim, &rec)
     };
     let mut case = case.into_inner();
     case.verdict = sim.verdict();
@@ -118,7 +125,12 @@ fn a_recorded_validation_replays_to_the_same_verdict_and_prediction() {
         case.keyframes[2].points.is_empty(),
         "the keyframe 40 m off is not read, only its origin"
     );
-    assert_eq!(case.points(), 2 * Ledge::new().points.len());
+    let read = 2 * Ledge::new().points.len();
+    assert!(
+        case.points() > read / 2 && case.points() < read,
+        "only the points in the box are kept: {} of {read}",
+        case.points()
+    );
     let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
     let replayed = validate(&mut sim, &case);
     assert_eq!(replayed.0, live.0);

@@ -829,13 +829,15 @@ impl PlannerTask {
                 mount: &mount,
             };
             match &dump {
-                Some(d) => sim.step(
-                    &speleo_simulator::RecordingClouds {
+                Some(d) => {
+                    let keep = sim.integrated_box();
+                    let rec = speleo_simulator::RecordingClouds {
                         inner: &clouds,
                         case: &d.case,
-                    },
-                    units,
-                ),
+                        keep,
+                    };
+                    sim.step(&rec, units)
+                }
                 None => sim.step(&clouds, units),
             }
         } else {
