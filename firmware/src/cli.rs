@@ -95,9 +95,21 @@ pub struct ValidateArgs {
     #[arg(long, value_name = "OUT.ply")]
     pub mesh: Option<PathBuf>,
     /// Write the simulated rover's pose at every physics step as CSV (t,
-    /// x, y, z, roll, pitch, yaw, tilt).
+    /// x, y, z, roll, pitch, yaw, tilt, and the follower's v and w).
     #[arg(long, value_name = "OUT.csv")]
     pub track: Option<PathBuf>,
+    /// Also drive the plan on this world's true surface (lava-tube,
+    /// short-tube, garage, boulders, flat, or a mesh file), from where the
+    /// rover truly stood: the true track (truth.csv) a simulated mission
+    /// wrote beside the cases places it.
+    #[arg(long, value_name = "NAME|MESH")]
+    pub world: Option<String>,
+    /// Seed of a generated world.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// With --world: the true drive's track, as --track.
+    #[arg(long, value_name = "OUT.csv", requires = "world")]
+    pub world_track: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

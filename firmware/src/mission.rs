@@ -658,6 +658,11 @@ pub fn run<C: FrameClock>(
         tasks.push(worker_figures(w, minor_frame_us));
     }
     track.odom_origin = odom_origin.map(|(p, q)| (p, 2.0 * q[3].atan2(q[0])));
+    if let (Some(dir), false) = (&cfg.simulator.dump_dir, track.samples.is_empty()) {
+        if let Err(e) = crate::validation_dump::write_truth(dir, &track.samples) {
+            tracing::warn!("the true track not written to {}: {e}", dir.display());
+        }
+    }
     let slam = (t_slam.slam().stats().keyframes > 0).then(|| {
         crate::slam_figures::figures(
             t_slam.slam(),

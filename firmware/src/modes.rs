@@ -843,13 +843,19 @@ pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn as_writer(w: &mut std::io::BufWriter<std::fs::File>) -> &mut dyn std::io::Write {
+    w
+}
+
 pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
+    use crate::tools::validate as tv;
     let cfg = match &a.config {
         Some(p) => Config::load(p)?,
         None => Config::default(),
     };
     cfg.validate()?;
-    let case = crate::tools::validate::read_case(&a.case)?;
+    let params = crate::mission::simulator_params(&cfg);
+    let case = tv::read_case(&a.case)?;
     let create = |p: &Path| {
         std::fs::File::create(p)
             .map(std::io::BufWriter::new)
@@ -857,29 +863,29 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
     };
     let mut track = a.track.as_deref().map(create).transpose()?;
     let mut mesh = a.mesh.as_deref().map(create).transpose()?;
-    let r = crate::tools::validate::replay(
-        case,
-        crate::mission::simulator_params(&cfg),
-        track.as_mut().map(|w| w as &mut dyn std::io::Write),
-        mesh.as_mut().map(|w| w as &mut dyn std::io::Write),
+    let r = tv::replay(
+        &case,
+        params.clone(),
+        track.as_mut().map(as_writer),
+        mesh.as_mut().map(as_writer),
     )?;
     for w in [track.as_mut(), mesh.as_mut()].into_iter().flatten() {
         std::io::Write::flush(w)?;
     }
-    let c = &r.case;
-    let length: f64 = c
+    let length: f64 = case
         .plan
         .windows(2)
         .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
         .sum();
-    let [x, y, z, yaw] = c.start;
+    let [x, y, z, yaw] = case.start;
     println!(
-        "case: start ({x:.2}, {y:.2}, {z:.2}) heading {:.1} deg, plan {} poses {length:.2} m, \
+        "case: at {:.1} s from ({x:.2}, {y:.2}, {z:.2}) heading {:.1} deg, plan {} poses {length:.2} m, \
          {} keyframes, {} points read",
+        case.began_ns as f64 * 1e-9,
         yaw.to_degrees(),
-        c.plan.len(),
-        c.keyframes.len(),
-        c.points()
+        case.plan.len(),
+        case.keyframes.len(),
+        case.points()
     );
     let show = |v: &speleo_simulator::Verdict| {
         format!(
@@ -887,25 +893,51 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
             v.outcome, v.drive_s, v.goal_error_m
         )
     };
+    let show_drive = |label: &str, d: &tv::Drive| {
+        let [tx, ty, tz] = d.max_tilt_at;
+        println!(
+            "{label}: {} ({} physics steps, {} triangles, {:.0} ms); most tilt {:.1} deg at ({tx:.2}, {ty:.2}, {tz:.2})",
+            show(&d.verdict),
+            d.physics_steps,
+            d.triangles,
+            d.wall_ms,
+            d.max_tilt_deg
+        );
+    };
     println!(
         "on board: {}",
-        c.verdict
+        case.verdict
             .as_ref()
             .map_or("no verdict recorded".into(), show)
     );
-    println!(
-        "replayed: {} ({} physics steps, {} triangles, {:.0} ms)",
-        show(&r.verdict),
-        r.physics_steps,
-        r.triangles,
-        r.wall_ms
-    );
-    let [tx, ty, tz] = r.max_tilt_at;
-    println!(
-        "most tilt {:.1} deg at ({tx:.2}, {ty:.2}, {tz:.2})",
-        r.max_tilt_deg
-    );
-    if r.same_as_on_board() {
+    show_drive("replayed", &r);
+    if let Some(name) = &a.world {
+        let truth_path = a
+            .case
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join(crate::validation_dump::TRUTH_FILE);
+        let truth = std::fs::read_to_string(&truth_path).map_err(|e| {
+            format!(
+                "--world needs the true track the simulation wrote beside the cases, {}: {e}",
+                truth_path.display()
+            )
+        })?;
+        let (start, plan, err) = tv::in_world(&case, &truth)?;
+        let world = speleo_hal::world::World::build(name, a.seed)?;
+        let ground = tv::crop(&world.mesh, start, &plan, params.margin_m);
+        let mut wt = a.world_track.as_deref().map(create).transpose()?;
+        let t = tv::drive_on(ground, start, &plan, params, wt.as_mut().map(as_writer))?;
+        if let Some(w) = wt.as_mut() {
+            std::io::Write::flush(w)?;
+        }
+        println!(
+            "SLAM's error then: ({:.2}, {:.2}, {:.2}) m, {:.1} deg; in the world from ({:.2}, {:.2}, {:.2})",
+            err[0], err[1], err[2], err[3], start[0], start[1], start[2]
+        );
+        show_drive("true world", &t);
+    }
+    if tv::same_verdict(&case, &r.verdict) {
         println!("same verdict as on board");
         Ok(ExitCode::SUCCESS)
     } else {

@@ -3,7 +3,9 @@
 //! read them) and the verdict written as DIR/validation-NNNN.case, for
 //! `speleo validate` to replay one away from the mission. A debugging aid:
 //! it allocates and writes files from the planner task, so it is off on
-//! a flight.
+//! a flight. In a simulation the true track is written beside them at
+//! the end (DIR/truth.csv), so `speleo validate --world` can put a case
+//! where the rover really stood.
 
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -31,8 +33,8 @@ impl ValidationDump {
         })
     }
 
-    pub fn begin(&self, start: [f64; 4], plan: impl IntoIterator<Item = [f64; 4]>) {
-        self.case.borrow_mut().begin(start, plan);
+    pub fn begin(&self, now: u64, start: [f64; 4], plan: impl IntoIterator<Item = [f64; 4]>) {
+        self.case.borrow_mut().begin(now, start, plan);
     }
 
     /// The verdict is in: the case written as validation `index` (the
@@ -67,4 +69,27 @@ impl ValidationDump {
             }
         }
     }
+}
+
+/// Name of the true track's file in the dump folder.
+pub const TRUTH_FILE: &str = "truth.csv";
+/// Every this many frames of the true track are written (0.1 s at
+/// 100 Hz: the rover stands still when a validation begins).
+const TRUTH_EVERY: usize = 10;
+
+/// The simulation's true track (time, base_link position and orientation
+/// in the world) as DIR/truth.csv.
+pub fn write_truth(dir: &Path, samples: &[(u64, [f64; 3], [f64; 4])]) -> std::io::Result<()> {
+    use std::io::Write;
+    let f = std::fs::File::create(dir.join(TRUTH_FILE))?;
+    let mut w = std::io::BufWriter::new(f);
+    writeln!(w, "t_ns,x_m,y_m,z_m,qw,qx,qy,qz")?;
+    for (t, p, q) in samples.iter().step_by(TRUTH_EVERY) {
+        writeln!(
+            w,
+            "{t},{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.9}",
+            p[0], p[1], p[2], q[0], q[1], q[2], q[3]
+        )?;
+    }
+    w.flush()
 }

@@ -323,6 +323,14 @@ fn a_dumped_validation_replays_to_the_verdict_the_mission_got() {
     let rows = std::fs::read_to_string(&track).expect("track");
     assert!(rows.starts_with("t_s,x_m,y_m,z_m"), "{rows:.80}");
     assert!(rows.lines().count() > 100, "a row a physics step");
+    // The same plan on the world's true surface, placed by the true track
+    // the simulation wrote beside the cases.
+    assert!(dir.join("truth.csv").exists());
+    let w = speleo(&["validate", case.to_str().expect("utf-8"), "--world", "flat"]);
+    let o = text(&w.stdout);
+    assert!(w.status.success(), "{o}{}", text(&w.stderr));
+    assert!(o.contains("true world: Reached"), "{o}");
+    assert!(o.contains("SLAM's error then"), "{o}");
     // Anything else is refused with the reason.
     let bad = speleo(&["validate", mesh.to_str().expect("utf-8")]);
     assert!(!bad.status.success());

@@ -5,7 +5,7 @@
 //! validate`, its world written as a mesh and its track as a table.
 //!
 //! The file is little-endian binary: the magic `SPLVCASE`, a version,
-//! the start (x, y, z, yaw), the plan's poses (x, y, ground z, heading),
+//! the mission time it began, the start (x, y, z, yaw), the plan's poses (x, y, ground z, heading),
 //! the verdict the mission got (outcome code, driving time, goal error),
 //! then each keyframe: whether it had a pose, its sensor origin and the
 //! points read from it. Coordinates are the map frame's f64, so a replay
@@ -34,6 +34,10 @@ pub struct RecordedKeyframe {
 /// One validation's inputs and the verdict the mission got from them.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ValidationCase {
+    /// Mission time the validation began, ns (the rover stands still
+    /// then: a sample of the true track at that time places it in a
+    /// simulated world).
+    pub began_ns: u64,
     pub start: [f64; 4],
     pub plan: Vec<[f64; 4]>,
     pub verdict: Option<Verdict>,
@@ -107,7 +111,13 @@ fn outcome_from(c: u8) -> Result<Option<Outcome>, CaseError> {
 
 impl ValidationCase {
     /// A new recording for a validation of `plan` from `start`.
-    pub fn begin(&mut self, start: [f64; 4], plan: impl IntoIterator<Item = [f64; 4]>) {
+    pub fn begin(
+        &mut self,
+        began_ns: u64,
+        start: [f64; 4],
+        plan: impl IntoIterator<Item = [f64; 4]>,
+    ) {
+        self.began_ns = began_ns;
         self.start = start;
         self.plan.clear();
         self.plan.extend(plan);
@@ -123,6 +133,7 @@ impl ValidationCase {
     pub fn write(&self, w: &mut impl Write) -> io::Result<()> {
         w.write_all(MAGIC)?;
         w.write_all(&VERSION.to_le_bytes())?;
+        w.write_all(&self.began_ns.to_le_bytes())?;
         write_f64s(w, &self.start)?;
         w.write_all(&(self.plan.len() as u32).to_le_bytes())?;
         for q in &self.plan {
@@ -159,6 +170,9 @@ impl ValidationCase {
         if version != VERSION {
             return Err(CaseError::Version(version));
         }
+        let mut t = [0u8; 8];
+        r.read_exact(&mut t)?;
+        let began_ns = u64::from_le_bytes(t);
         let start = read_f64s::<4>(r)?;
         let n = read_count(r, "plan poses", MAX_PLAN_POSES)?;
         let plan = (0..n)
@@ -188,6 +202,7 @@ impl ValidationCase {
             });
         }
         Ok(ValidationCase {
+            began_ns,
             start,
             plan,
             verdict,

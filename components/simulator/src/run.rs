@@ -146,6 +146,10 @@ pub struct InternalSim {
     phase: Phase,
     step: u64,
     targets: [f64; 4],
+    /// The follower's last command after the ramps (v m/s, w rad/s).
+    command: (f64, f64),
+    /// Ground given instead of the clouds' ([`InternalSim::begin_on`]).
+    given_ground: Option<Mesh>,
     /// Steps since motion began, once it has.
     moving_since: Option<u64>,
     time_allowed_s: f64,
@@ -175,6 +179,8 @@ impl InternalSim {
             phase: Phase::Idle,
             step: 0,
             targets: [0.0; 4],
+            command: (0.0, 0.0),
+            given_ground: None,
             moving_since: None,
             time_allowed_s: 0.0,
             bounds: ([0.0; 3], [0.0; 3]),
@@ -230,10 +236,25 @@ impl InternalSim {
         self.moving_since = None;
         self.step = 0;
         self.targets = [0.0; 4];
+        self.command = (0.0, 0.0);
         self.limiter.halt();
         self.counters.runs += 1;
+        self.given_ground = None;
         // The last world is taken down and the TSDF cleared in the steps.
         self.phase = Phase::Teardown;
+    }
+
+    /// Like [`InternalSim::begin`], but on `ground` as it is (no clouds,
+    /// no pad or strip): to drive a plan on a world's true surface, away
+    /// from the mission (`speleo validate --world`). Allocates.
+    pub fn begin_on(
+        &mut self,
+        start: [f64; 4],
+        plan: impl IntoIterator<Item = [f64; 4]>,
+        ground: Mesh,
+    ) {
+        self.begin(start, plan);
+        self.given_ground = Some(ground);
     }
 
     /// What the next step works on: "integrate", "ground", "drive", or
@@ -273,6 +294,11 @@ impl InternalSim {
     /// has been put down.
     pub fn rover_state(&self) -> Option<&speleo_hal::sim::BodyState> {
         self.rover.as_deref().map(PhysicsRover::state)
+    }
+
+    /// The follower's last command, as the drives get it (v m/s, w rad/s).
+    pub fn command(&self) -> (f64, f64) {
+        self.command
     }
 
     /// The world built for this validation (the ground colliders'
@@ -328,7 +354,11 @@ impl InternalSim {
                 Phase::Teardown => self.phase = self.teardown(),
                 Phase::Clear => {
                     self.terrain.begin(self.bounds.0, self.bounds.1);
-                    self.phase = Phase::Integrate { k: 0, from: 0 };
+                    self.phase = if self.given_ground.is_some() {
+                        Phase::Base
+                    } else {
+                        Phase::Integrate { k: 0, from: 0 }
+                    };
                 }
                 Phase::Integrate { k, from } => {
                     if let Some(c) = clouds {
@@ -405,6 +435,16 @@ impl InternalSim {
         // inside a floor the TSDF puts a few centimetres higher than the
         // estimate would be thrown out of it.
         let ground = [x, y, z - self.p.base_height_m + DROP_M, yaw];
+        if let Some(mesh) = self.given_ground.take() {
+            match PhysicsRover::new(&self.p.physics, &mesh, ground, self.p.dt_s) {
+                Ok(r) => {
+                    self.rover = Some(Box::new(r));
+                    self.phase = Phase::Drive;
+                }
+                Err(_) => self.phase = self.finish(Outcome::NoGround),
+            }
+            return mesh.vertices.len();
+        }
         match PhysicsRover::new(&self.p.physics, &Mesh::default(), ground, self.p.dt_s) {
             Ok(mut r) => {
                 // The LiDAR cannot see the ground under and around the
@@ -532,6 +572,7 @@ impl InternalSim {
         if self.step >= settle_steps && self.step.is_multiple_of(control_every) {
             let c = self.follower.command(x, y, yaw);
             let (v, wz) = self.limiter.step(c.v, c.w, CONTROL_PERIOD_S);
+            self.command = (v, wz);
             self.targets = self.p.skid.wheel_speeds(v, wz);
             if self.moving_since.is_none() && (v.abs() > 1e-3 || wz.abs() > 1e-3) {
                 self.moving_since = Some(self.step);

@@ -94,7 +94,7 @@ fn drive(sim: &mut InternalSim, clouds: &impl CloudSource) -> Run {
 fn recorded() -> (Run, Vec<u8>) {
     let scans = Ledge::new();
     let case = RefCell::new(ValidationCase::default());
-    case.borrow_mut().begin(start(), plan());
+    case.borrow_mut().begin(42, start(), plan());
     let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
     sim.begin(start(), plan());
     let got = {
@@ -119,6 +119,7 @@ fn a_recorded_validation_replays_to_the_same_verdict_and_prediction() {
     let case = ValidationCase::read(&mut bytes.as_slice()).expect("read");
     assert_eq!(case.plan, plan());
     assert_eq!(case.start, start());
+    assert_eq!(case.began_ns, 42);
     assert_eq!(case.verdict.map(|v| v.outcome), Some(live.0));
     assert_eq!(case.keyframes.len(), 3);
     assert!(
@@ -153,13 +154,13 @@ fn a_damaged_case_is_refused_with_its_reason() {
     newer[8] = 9;
     let v = ValidationCase::read(&mut newer.as_slice()).expect_err("refused");
     assert!(matches!(v, CaseError::Version(9)), "{v}");
-    // The plan's pose count, just after the magic, version and start.
+    // The plan's pose count, just after the magic, version, time and start.
     let mut huge = bytes.clone();
-    huge[44..48].copy_from_slice(&u32::MAX.to_le_bytes());
+    huge[52..56].copy_from_slice(&u32::MAX.to_le_bytes());
     let h = ValidationCase::read(&mut huge.as_slice()).expect_err("refused");
     assert!(matches!(h, CaseError::Count { .. }), "{h}");
     let mut outcome = bytes;
-    let at = 48 + plan().len() * 32;
+    let at = 56 + plan().len() * 32;
     outcome[at] = 77;
     let o = ValidationCase::read(&mut outcome.as_slice()).expect_err("refused");
     assert!(matches!(o, CaseError::Outcome(77)), "{o}");

@@ -796,7 +796,7 @@ impl PlannerTask {
             .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64, p[3] as f64]);
         sim.begin([x, y, z, self.query.yaw], poses.clone());
         if let Some(d) = &ex.dump {
-            d.begin([x, y, z, self.query.yaw], poses);
+            d.begin(now, [x, y, z, self.query.yaw], poses);
         }
         ex.validation_began_ns = now;
         // The old world's teardown needs no clouds: on the worker already.
