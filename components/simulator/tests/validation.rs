@@ -273,3 +273,43 @@ fn a_floor_also_seen_from_the_level_under_it_is_driven_on() {
     let lowest = z.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(lowest > 0.0, "{lowest} {z:?}");
 }
+
+/// A flat floor from x = -3 to 12 and, from `ledge_x`, a block `ledge_h`
+/// high (as a world mesh: ground given as it is).
+fn floor_with_ledge(ledge_x: f32, ledge_h: f32) -> speleo_hal::world::Mesh {
+    use speleo_hal::world::{shapes::add_box, Mesh, Surface};
+    let mut m = Mesh::default();
+    add_box(
+        &mut m,
+        [-3.0, -3.0, -0.2],
+        [ledge_x, 3.0, 0.0],
+        Surface::Rock,
+    );
+    add_box(
+        &mut m,
+        [ledge_x, -3.0, -0.2],
+        [12.0, 3.0, ledge_h],
+        Surface::Rock,
+    );
+    m
+}
+
+#[test]
+fn on_given_ground_a_plan_is_driven_as_on_the_clouds() {
+    let p = SimulatorParams::default();
+    let start = [0.0, 0.0, p.base_height_m, 0.0];
+    let drive = |ground| {
+        let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
+        sim.begin_on(start, plan(|_| 0.0), ground);
+        let mut n = 0;
+        loop {
+            if let Some(v) = sim.step_without_clouds(50) {
+                break v.outcome;
+            }
+            n += 1;
+            assert!(n < 1_000_000, "no verdict");
+        }
+    };
+    assert_eq!(drive(floor_with_ledge(12.0, 0.0)), Outcome::Reached);
+    assert_ne!(drive(floor_with_ledge(2.0, 0.45)), Outcome::Reached);
+}
