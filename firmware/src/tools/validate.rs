@@ -11,7 +11,7 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-use speleo_hal::sim::BodyState;
+use speleo_hal::sim::{quat, BodyState};
 use speleo_hal::world::Mesh;
 use speleo_simulator::{InternalSim, SimulatorParams, ValidationCase, Verdict};
 
@@ -47,10 +47,8 @@ pub fn read_case(path: &Path) -> Result<ValidationCase, Error> {
 
 /// Roll, pitch, yaw and tilt from upright of `s`, deg.
 fn attitude(s: &BodyState) -> [f64; 4] {
-    let [w, x, y, z] = s.orientation;
-    let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
-    let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
-    let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+    let (yaw, pitch, roll) = quat::to_ypr(&s.orientation);
+    let [_, x, y, _] = s.orientation;
     let tilt = (1.0 - 2.0 * (x * x + y * y)).clamp(-1.0, 1.0).acos();
     [roll, pitch, yaw, tilt].map(f64::to_degrees)
 }
@@ -150,11 +148,7 @@ pub type InWorld = ([f64; 4], Vec<[f64; 4]>, [f64; 4]);
 /// first frame's pose: the map frame's origin.
 pub fn in_world(case: &ValidationCase, truth: &str) -> Result<InWorld, Error> {
     // x, y, z, yaw of a row.
-    let pose = |f: &[f64]| {
-        let [w, qx, qy, qz] = [f[4], f[5], f[6], f[7]];
-        let yaw = (2.0 * (w * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
-        [f[1], f[2], f[3], yaw]
-    };
+    let pose = |f: &[f64]| [f[1], f[2], f[3], quat::to_ypr(&[f[4], f[5], f[6], f[7]]).0];
     // The first row is the first frame's: the map frame's origin.
     let mut origin: Option<[f64; 4]> = None;
     // The row nearest the case's time: how near, the pose.
