@@ -16,6 +16,7 @@
 //! executive can run it as anytime work.
 
 mod case;
+mod deflection;
 mod params;
 mod prediction;
 mod prefix;
