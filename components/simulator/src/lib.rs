@@ -16,7 +16,6 @@
 //! executive can run it as anytime work.
 
 mod case;
-mod deflection;
 mod params;
 mod prediction;
 mod prefix;

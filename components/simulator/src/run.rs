@@ -5,7 +5,6 @@ use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS};
 use speleo_hal::sim::physics::PhysicsRover;
 use speleo_hal::world::Mesh;
 
-use crate::deflection::Deflection;
 use crate::prediction::Prediction;
 use crate::ribbon;
 use crate::terrain::Terrain;
@@ -115,9 +114,6 @@ const VERTICES_PER_UNIT: usize = 24;
 /// The ribbon's width beyond the wheels and length beyond the body, m:
 /// the follower's straying from the path.
 const RIBBON_MARGIN_M: f64 = 0.3;
-/// The ground turning the rover this far off its commands within three
-/// seconds is a stall on an obstacle, rad (80 degrees; see `deflection`).
-const MAX_DEFLECTION_RAD: f64 = 80.0 * std::f64::consts::PI / 180.0;
 /// Turning this much on the spot is progress, rad.
 const STUCK_TURN_RAD: f64 = 0.3;
 /// The rover is put down this far over its estimated ground, m.
@@ -156,8 +152,6 @@ pub struct InternalSim {
     given_ground: Option<Mesh>,
     /// Steps since motion began, once it has.
     moving_since: Option<u64>,
-    /// The ground's turning of the rover against its commands.
-    deflection: Deflection,
     time_allowed_s: f64,
     /// The world's box, low and high corners.
     bounds: ([f64; 3], [f64; 3]),
@@ -192,7 +186,6 @@ impl InternalSim {
             bounds: ([0.0; 3], [0.0; 3]),
             lowest_z: 0.0,
             anchor: (0.0, [0.0; 2], 0.0),
-            deflection: Deflection::default(),
             prediction: Prediction::with_capacity(),
             scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
             verdict: None,
@@ -241,7 +234,6 @@ impl InternalSim {
         self.prediction.clear();
         self.verdict = None;
         self.moving_since = None;
-        self.deflection.clear();
         self.step = 0;
         self.targets = [0.0; 4];
         self.command = (0.0, 0.0);
@@ -577,12 +569,7 @@ impl InternalSim {
             }
             self.anchor = (t, [x, y], yaw);
         }
-        let mut deflected = 0.0;
         if self.step >= settle_steps && self.step.is_multiple_of(control_every) {
-            // The period that ended, against the command it ran under.
-            deflected = self
-                .deflection
-                .period(yaw, self.command.1, CONTROL_PERIOD_S);
             let c = self.follower.command(x, y, yaw);
             let (v, wz) = self.limiter.step(c.v, c.w, CONTROL_PERIOD_S);
             self.command = (v, wz);
@@ -624,11 +611,6 @@ impl InternalSim {
         {
             self.anchor = (t, [x, y], yaw);
         } else if self.step > settle_steps && t - self.anchor.0 > self.p.stuck_after_s {
-            return self.verdict_now(Outcome::Stuck);
-        }
-        if self.moving_since.is_some() && deflected > MAX_DEFLECTION_RAD {
-            // Held and pivoted by the ground: a pass would rest on the
-            // rover slipping off (see `deflection`).
             return self.verdict_now(Outcome::Stuck);
         }
         let driving_s = self
