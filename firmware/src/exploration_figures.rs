@@ -51,6 +51,8 @@ pub struct ExplorationFigures {
     /// Going home without a plan from where the rover stood: drives back
     /// along its own track.
     pub retraces: u64,
+    /// Retraces the internal simulation refused (not driven).
+    pub retraces_refused: u64,
     /// Returns home that found something to explore on the way.
     pub resumes: u64,
     /// Stuck stops the rover backed out of; each place became an obstacle.
@@ -90,6 +92,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         plans_completed: c.plans_completed,
         partial_plans: e.counters.partial_plans,
         retraces: e.counters.retraces,
+        retraces_refused: e.counters.retraces_refused,
         resumes: e.counters.resumes,
         backed_out: e.counters.backed_out,
         second_looks: e.counters.second_looks,

@@ -8,6 +8,12 @@ use crate::trail::Trail;
 /// Failed goals remembered (older ones are forgotten first).
 pub const MAX_REJECTED: usize = 64;
 
+/// After exploring resumed on the way home found nothing it could reach,
+/// it does not resume again this near, m: the same patches turn up in the
+/// next scan, and the rover went round between the two for good (in the
+/// lava tube, 27 m from home, exploring again, retracing away, returning).
+pub const RESUME_AGAIN_M: f64 = 5.0;
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ExplorerParams {
     /// The rover "has been near" what lies within this radius, m.
@@ -79,6 +85,10 @@ pub struct Explorer {
     rejected_flat: heapless::Vec<[f64; 2], MAX_REJECTED>,
     mode: Mode,
     empty_queries: u32,
+    /// Exploring resumed on the way home and has driven nothing since.
+    resumed: bool,
+    /// Where the last resumed exploring found nothing reachable.
+    resumed_in_vain_at: Option<[f64; 2]>,
 }
 
 impl Explorer {
@@ -97,6 +107,8 @@ impl Explorer {
             rejected_flat: heapless::Vec::new(),
             mode: Mode::Exploring,
             empty_queries: 0,
+            resumed: false,
+            resumed_in_vain_at: None,
             home,
             p,
         }
@@ -116,6 +128,8 @@ impl Explorer {
         self.rejected_flat.clear();
         self.mode = Mode::Exploring;
         self.empty_queries = 0;
+        self.resumed = false;
+        self.resumed_in_vain_at = None;
     }
 
     pub fn mode(&self) -> Mode {
@@ -169,10 +183,12 @@ impl Explorer {
         }
     }
 
-    /// Forget the goals rejected so far: they may be tried again.
+    /// Forget the goals rejected so far, and where resumed exploring was
+    /// in vain: they may be tried again.
     pub fn forget_rejected(&mut self) {
         self.rejected.clear();
         self.rejected_flat.clear();
+        self.resumed_in_vain_at = None;
     }
 
     pub fn rejected(&self) -> &[[f64; 2]] {
@@ -191,13 +207,39 @@ impl Explorer {
         }
     }
 
-    /// Something explorable turned up on the way home after nothing was
-    /// left: explore again. A return for the time limit stays a return.
-    pub fn resume(&mut self) {
-        if self.mode == Mode::Returning(ReturnReason::Explored) {
-            self.mode = Mode::Exploring;
-            self.empty_queries = 0;
+    /// Something explorable turned up on the way home at `at` after
+    /// nothing was left: explore again, true. A return for the time limit
+    /// stays a return, and so does one within [`RESUME_AGAIN_M`] of where
+    /// the last resumed exploring found nothing it could reach.
+    pub fn resume(&mut self, at: [f64; 2]) -> bool {
+        let in_vain_near = self
+            .resumed_in_vain_at
+            .is_some_and(|q| (q[0] - at[0]).hypot(q[1] - at[1]) < RESUME_AGAIN_M);
+        if self.mode != Mode::Returning(ReturnReason::Explored) || in_vain_near {
+            return false;
         }
+        self.mode = Mode::Exploring;
+        self.empty_queries = 0;
+        self.resumed = true;
+        true
+    }
+
+    /// A plan is driven: exploring (resumed or not) got somewhere.
+    pub fn driven(&mut self) {
+        self.resumed = false;
+    }
+
+    /// A query found nothing it could reach from `at`. Right after a
+    /// resume, the return goes on (true) instead of the rover casting
+    /// about for a way on.
+    pub fn resumed_in_vain(&mut self, at: [f64; 2]) -> bool {
+        if !self.resumed || self.mode != Mode::Exploring {
+            return false;
+        }
+        self.resumed = false;
+        self.resumed_in_vain_at = Some(at);
+        self.mode = Mode::Returning(ReturnReason::Explored);
+        true
     }
 
     /// Going home from `at`: goal points `ahead_m`, then a metre less at a
@@ -247,7 +289,7 @@ mod tests {
         // From the earliest track point within 2 m (x = 17), 8 m back.
         assert!((goals[0][0] - 9.0).abs() < 1e-9, "{goals:?}");
         // A frontier seen on the way: exploring again, until it too is done.
-        e.resume();
+        assert!(e.resume([19.0, 0.0]));
         assert_eq!(e.mode(), Mode::Exploring);
         for _ in 0..3 {
             e.query_result(false);
@@ -259,8 +301,33 @@ mod tests {
         e.observe(101.0, [0.2, 0.0, 0.2]);
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
         // Home is home.
-        e.resume();
+        assert!(!e.resume([0.2, 0.0]));
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+    }
+
+    #[test]
+    fn exploring_resumed_in_vain_goes_home_and_does_not_resume_there_again() {
+        let mut e = Explorer::new(ExplorerParams::default(), [0.0; 3]);
+        for _ in 0..3 {
+            e.query_result(false);
+        }
+        // Nothing reachable right after a resume: home again at once.
+        assert!(e.resume([27.0, 4.0]));
+        assert!(e.resumed_in_vain([27.0, 4.0]));
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        // The same patches from near there are not tried again ...
+        assert!(!e.resume([30.0, 4.0]));
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        // ... but farther on they may be; and once a plan is driven, a
+        // later dead end is an ordinary one (no return forced).
+        assert!(e.resume([20.0, 4.0]));
+        e.driven();
+        assert!(!e.resumed_in_vain([15.0, 4.0]));
+        assert_eq!(e.mode(), Mode::Exploring);
+        // Exploring that never was resumed is not cut short either.
+        let mut fresh = Explorer::new(ExplorerParams::default(), [0.0; 3]);
+        assert!(!fresh.resumed_in_vain([1.0, 0.0]));
+        assert_eq!(fresh.mode(), Mode::Exploring);
     }
 
     #[test]
@@ -271,7 +338,7 @@ mod tests {
         assert_eq!(e.mode(), Mode::Stranded);
         // Nothing brings it back: neither a frontier, nor the time limit,
         // nor passing near home (it cannot move).
-        e.resume();
+        assert!(!e.resume([6.0, 0.0]));
         e.query_result(false);
         e.observe(1.0e6, [0.0, 0.0, 0.0]);
         assert_eq!(e.mode(), Mode::Stranded);
@@ -296,7 +363,7 @@ mod tests {
         );
         e.observe(11.0, [5.0, 0.0, 0.0]);
         assert_eq!(e.mode(), Mode::Returning(ReturnReason::TimeLimit));
-        e.resume();
+        assert!(!e.resume([5.0, 0.0]));
         assert_eq!(e.mode(), Mode::Returning(ReturnReason::TimeLimit));
         for k in 0..100 {
             e.reject([k as f64, 0.0]);

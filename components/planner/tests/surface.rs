@@ -228,6 +228,32 @@ fn a_level_under_two_slabs_and_a_roof_is_planned_on() {
     }
 }
 
+/// From (1, 2) to (9, 2) on `m`, heading +x: the plan with the default
+/// parameters and the one with `wary`, and their costs.
+fn across_the_floor(m: &MlsMap, wary: SurfaceParams) -> (Plan, Plan, u32, u32) {
+    let (start, goal) = ([1.0, 2.0, 0.0, 0.0], [9.0, 2.0, 0.0, 0.0]);
+    let plain = plan(m, start, goal);
+    let wary = plan_with(m, start, goal, wary);
+    let (Some(c0), Some(c1)) = (plain.cost, wary.cost) else {
+        panic!("no plan");
+    };
+    (plain, wary, c0, c1)
+}
+
+/// Least distance from `c` (x, y) to the path's segments, m.
+fn closest_approach(p: &Plan, c: [f64; 2]) -> f64 {
+    p.path
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let t = (((c[0] - a[0]) * dx + (c[1] - a[1]) * dy) / (dx * dx + dy * dy).max(1e-12))
+                .clamp(0.0, 1.0);
+            (a[0] + t * dx - c[0]).hypot(a[1] + t * dy - c[1])
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
 #[test]
 fn a_clearance_weight_keeps_the_path_farther_from_a_rock() {
     let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
@@ -238,33 +264,14 @@ fn a_clearance_weight_keeps_the_path_farther_from_a_rock() {
         surface(&mut m, (4.8, 5.2), (1.2, 1.6), |_, _| h);
         h += 0.05;
     }
-    let (start, goal) = ([1.0, 2.0, 0.0, 0.0], [9.0, 2.0, 0.0, 0.0]);
-    // Least distance from the rock's centre to the path's segments.
-    let closest = |p: &Plan| {
-        p.path
-            .windows(2)
-            .map(|w| {
-                let (a, b) = (w[0], w[1]);
-                let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-                let t = (((5.0 - a[0]) * dx + (1.4 - a[1]) * dy) / (dx * dx + dy * dy).max(1e-12))
-                    .clamp(0.0, 1.0);
-                (a[0] + t * dx - 5.0).hypot(a[1] + t * dy - 1.4)
-            })
-            .fold(f64::INFINITY, f64::min)
-    };
-    let plain = plan(&m, start, goal);
-    let wary = plan_with(
+    let closest = |p: &Plan| closest_approach(p, [5.0, 1.4]);
+    let (plain, wary, c0, c1) = across_the_floor(
         &m,
-        start,
-        goal,
         SurfaceParams {
             clearance_weight: 5.0,
             ..SurfaceParams::default()
         },
     );
-    let (Some(c0), Some(c1)) = (plain.cost, wary.cost) else {
-        panic!("no plan");
-    };
     assert!(c1 >= c0, "{c1} < {c0}");
     assert!(
         closest(&wary) > closest(&plain),
@@ -272,6 +279,48 @@ fn a_clearance_weight_keeps_the_path_farther_from_a_rock() {
         closest(&wary),
         closest(&plain)
     );
+}
+
+#[test]
+fn a_bump_weight_takes_the_path_round_a_rock_the_map_lets_it_cross() {
+    // A rock 0.4 m across and 8 cm tall on the straight line, a dome
+    // seen from above: under the body's clearance and no more than a step
+    // between cells, so the map lets the rover over it.
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 10.0), (0.0, 4.0), |x, y| {
+        let r2 = (x - 5.0).powi(2) + (y - 2.0).powi(2);
+        0.08 * (1.0 - r2 / 0.04).max(0.0)
+    });
+    let (start, goal) = ([1.0, 2.0, 0.0, 0.0], [9.0, 2.0, 0.0, 0.0]);
+    let closest = |p: &Plan| closest_approach(p, [5.0, 2.0]);
+    let (plain, wary, c0, c1) = across_the_floor(
+        &m,
+        SurfaceParams {
+            bump_weight: 3.0,
+            ..SurfaceParams::default()
+        },
+    );
+    assert!(c1 > c0, "{c1} <= {c0}");
+    // Straight over it without the weight; with it, the body's inscribed
+    // circle (0.35 m) clear of its top.
+    assert!(closest(&plain) < 0.2, "{:.2} m", closest(&plain));
+    assert!(closest(&wary) > 0.4, "{:.2} m", closest(&wary));
+    // Flat ground costs nothing more.
+    let mut flat = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut flat, (0.0, 10.0), (0.0, 4.0), |_, _| 0.0);
+    let on_flat = |w: f64| {
+        plan_with(
+            &flat,
+            start,
+            goal,
+            SurfaceParams {
+                bump_weight: w,
+                ..SurfaceParams::default()
+            },
+        )
+        .cost
+    };
+    assert_eq!(on_flat(0.0), on_flat(3.0));
 }
 
 #[test]

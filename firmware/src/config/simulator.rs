@@ -30,11 +30,9 @@ pub struct SimulatorConfig {
     /// planner task lends the validation to and takes it back from the
     /// next frame): everything but the clouds' integration. A physics
     /// step is 6 units, so 120 drives the simulated rover 20 times faster
-    /// than real time at 10 ms steps. 0 (the default for now): all the
-    /// work in the planner's own window (`planner.step_units.validate` a
-    /// frame), 2x real time; with 120 the default lava tube mission's
-    /// rover reaches a pocket 95 m in that it cannot climb out of (see
-    /// the simulator's README).
+    /// than real time at 10 ms steps (the default). 0: all the work in
+    /// the planner's own window (`planner.step_units.validate` a frame),
+    /// 2x real time, for a computer with one core.
     pub worker_units: u32,
     /// Write every validation's inputs and verdict to this folder as
     /// validation-NNNN.case, for `speleo validate` (`speleo sim
@@ -55,7 +53,7 @@ impl Default for SimulatorConfig {
             goal_tolerance_m: p.goal_tolerance_m,
             tip_over_deg: p.tip_over_deg,
             stuck_after_s: p.stuck_after_s,
-            worker_units: 0,
+            worker_units: 120,
             dump_dir: None,
         }
     }

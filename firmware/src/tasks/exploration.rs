@@ -31,6 +31,8 @@ pub struct ExplorationCounters {
     /// or no ground under it, after which it drove back along its own
     /// track.
     pub retraces: u64,
+    /// Retraces the internal simulation refused (not driven).
+    pub retraces_refused: u64,
     /// Returns home that found something explorable on the way and went
     /// back to exploring.
     pub resumes: u64,
@@ -305,8 +307,12 @@ impl Exploration {
     /// `query`: the rover came this way, so it can go back. The map may
     /// have come to refuse the way (a low rim seen from the far side, a
     /// gap the planner no longer bridges); the safety monitor still
-    /// watches every metre of it.
-    pub fn retrace(&mut self, bus: &mut Bus, now: u64, query: u64, ahead_m: f64) {
+    /// watches every metre of it. With the internal simulator the
+    /// retrace is only shown, and true returned: it is driven once the
+    /// simulation passes it ([`Exploration::driving`]). A back-out is
+    /// driven at once (straight, a metre, off what holds the rover: the
+    /// simulation cannot tell what that is).
+    pub fn retrace(&mut self, bus: &mut Bus, now: u64, query: u64, ahead_m: f64) -> bool {
         self.stranded = false;
         if core::mem::take(&mut self.back_out) {
             // A back-out each way got nowhere: the track next, steered,
@@ -318,21 +324,32 @@ impl Exploration {
             self.escape_attempts += 1;
             if round < 2 {
                 self.back_out(bus, now, query, round == 1);
-                return;
+                return false;
             }
         }
         self.backing_out = false;
         self.counters.retraces += 1;
         let Some(pose) = bus.slam.get().map(|p| p.value.position) else {
-            return;
+            return false;
         };
         let trail = self.explorer.trail().points();
-        let Some(from) = self.explorer.trail().latest_near(pose, 2.0) else {
-            return;
+        // Exploring, back the way the rover came; going home, back along
+        // the track from its first pass here, which leads home (from the
+        // last pass, it led back out the way the rover had just come
+        // home by).
+        let track = self.explorer.trail();
+        let from = if matches!(self.explorer.mode(), Mode::Returning(_)) {
+            track.earliest_near(pose, 2.0)
+        } else {
+            track.latest_near(pose, 2.0)
         };
+        let Some(from) = from else {
+            return false;
+        };
+        let validate = self.validates();
         let mut msg = PlanMsg {
             query,
-            execute: true,
+            execute: !validate,
             ..PlanMsg::default()
         };
         let mut at = pose;
@@ -389,10 +406,20 @@ impl Exploration {
             backward,
             "retracing"
         );
-        self.executing = query;
-        self.counters.plans_executed += 1;
+        if !validate {
+            self.executing = query;
+            self.counters.plans_executed += 1;
+        }
         bus.exploration.goal = Some(points[n - 1]);
         bus.plan.publish(now, msg);
+        validate
+    }
+
+    /// The simulation refused the retrace shown: nothing is driven, and
+    /// the next query retraces again (the other way, from here).
+    pub fn retrace_refused(&mut self) {
+        self.counters.retraces_refused += 1;
+        self.stranded = true;
     }
 
     /// Get off what held the rover: straight along its body axis, without
@@ -468,7 +495,9 @@ impl Exploration {
         self.second_look_taken = true;
         self.no_go.clear();
         self.explorer.forget_rejected();
-        self.explorer.resume();
+        // Nothing is barred now: resumed wherever the rover is.
+        let home = self.explorer.home();
+        self.explorer.resume([home[0], home[1]]);
         self.counters.second_looks += 1;
         tracing::debug!("a second look, the barred places forgotten");
         true
@@ -487,6 +516,7 @@ impl Exploration {
     pub fn driving(&mut self, query: u64) {
         self.executing = query;
         self.counters.plans_executed += 1;
+        self.explorer.driven();
         self.back_out = false;
         self.backing_out = false;
     }
@@ -735,14 +765,45 @@ mod tests {
         );
     }
 
-    #[test]
-    fn tilt_stops_in_one_place_strand_the_rover_and_moving_on_resets_the_count() {
-        let mut e = Exploration::new(
+    fn exploration() -> Exploration {
+        Exploration::new(
             ExplorerParams::default(),
             CandidateParams::default(),
             None,
             1.0,
-        );
+        )
+    }
+
+    #[test]
+    fn a_retrace_goes_back_the_way_the_rover_came_and_on_the_way_home_toward_home() {
+        let mut e = exploration();
+        let mut bus = Bus::new();
+        // Out to 20 m, and back to 10 m.
+        for k in 0..=20 {
+            e.explorer.observe(k as f64, [k as f64, 0.0, 0.0]);
+        }
+        for k in (10..20).rev() {
+            e.explorer.observe(40.0 - k as f64, [k as f64, 0.2, 0.0]);
+        }
+        at(&mut bus, [10.0, 0.1, 0.0]);
+        let end = |bus: &Bus| bus.plan.get().and_then(|p| p.value.poses.last().copied());
+        // Exploring: back where it just came from.
+        e.retrace(&mut bus, 1, 1, 5.0);
+        let out = end(&bus).unwrap_or_else(|| panic!("no retrace"));
+        assert!(out[0] > 14.0, "{out:?}");
+        // Going home: along the track from its first pass, toward home.
+        for _ in 0..3 {
+            e.explorer.query_result(false);
+        }
+        assert!(matches!(e.mode(), Mode::Returning(_)));
+        e.retrace(&mut bus, 2, 2, 5.0);
+        let home = end(&bus).unwrap_or_else(|| panic!("no retrace"));
+        assert!(home[0] < 6.0, "{home:?}");
+    }
+
+    #[test]
+    fn tilt_stops_in_one_place_strand_the_rover_and_moving_on_resets_the_count() {
+        let mut e = exploration();
         let mut bus = Bus::new();
         let tilt = StopReason::Tilt as u8;
         // Tilt stops that each got somewhere, or other stops between

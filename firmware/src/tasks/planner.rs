@@ -144,6 +144,8 @@ struct Query {
     solved_at: u64,
     /// The plan under validation: its (cost, bound) and optimality.
     best: ((u32, u32), bool),
+    /// The plan under validation is a retrace of the track.
+    retrace: bool,
 }
 
 pub struct PlannerTask {
@@ -292,9 +294,9 @@ impl PlannerTask {
                 if ex.retrace_due() {
                     // No plan home from here: back the way the rover came.
                     self.counters.queries += 1;
-                    ex.retrace(bus, now, self.counters.queries, self.goal_ahead_m);
+                    let check = ex.retrace(bus, now, self.counters.queries, self.goal_ahead_m);
                     self.counters.plans_published += 1;
-                    return false;
+                    return check && self.validate_retrace(bus, now, &pose);
                 }
             }
             None => {
@@ -537,11 +539,11 @@ impl PlannerTask {
             return Phase::Idle;
         }
         if matches!(explorer.mode(), Mode::Returning(_)) {
-            if !found {
-                // Nothing new here either: on home.
+            // Nothing new here either (or a return for the time limit, or
+            // a place where exploring again was in vain): on home.
+            if !found || !explorer.resume([self.query.rover[0], self.query.rover[1]]) {
                 return self.goal_order();
             }
-            explorer.resume();
             counters.resumes += 1;
             tracing::debug!(
                 x = self.query.rover[0],
@@ -555,6 +557,13 @@ impl PlannerTask {
                 self.end_query();
                 return Phase::Idle;
             }
+        }
+        let rover = [self.query.rover[0], self.query.rover[1]];
+        if ex.scan.best().is_empty() && ex.explorer.resumed_in_vain(rover) {
+            // Exploring again found nothing here after all: the next
+            // query goes home.
+            self.end_query();
+            return Phase::Idle;
         }
         let best = ex.scan.best();
         if best.is_empty() {
@@ -591,7 +600,12 @@ impl PlannerTask {
         if k >= self.query.order_len {
             self.counters.no_path += 1;
             if let Some(ex) = &mut self.explore {
-                ex.home_failed();
+                // No goal reachable right after exploring resumed on the
+                // way home: home (the next query), not a way on.
+                let rover = [self.query.rover[0], self.query.rover[1]];
+                if !ex.explorer.resumed_in_vain(rover) {
+                    ex.home_failed();
+                }
             }
             self.end_query();
             return Phase::Idle;
@@ -781,12 +795,38 @@ impl PlannerTask {
         let validate = self.explore.as_ref().is_some_and(|e| e.validates());
         // Shown while it is validated; marked to be driven otherwise.
         self.publish(bus, now, best, optimal, !validate);
-        let Some(ex) = self.explore.as_deref_mut() else {
+        if self.explore.is_none() {
             return;
+        }
+        self.query.best = (best, optimal);
+        if !self.simulate_shown_plan(bus, now) {
+            self.end_query();
+        }
+    }
+
+    /// The retrace just shown is driven in the internal simulator first,
+    /// as every plan is: a blind one turned the garage's rover round at
+    /// the roof's ramp opening until it hung tilted over the edge.
+    fn validate_retrace(&mut self, bus: &Bus, now: u64, pose: &crate::bus::SlamPose) -> bool {
+        self.query = Query {
+            began_ns: now,
+            rover: pose.position,
+            yaw: yaw_of(pose.orientation),
+            retrace: true,
+            ..Query::default()
+        };
+        self.simulate_shown_plan(bus, now)
+    }
+
+    /// Begin driving the plan shown on the bus in the internal simulator
+    /// from the query's pose (the `Validate` phase); false without a
+    /// simulator or a plan.
+    fn simulate_shown_plan(&mut self, bus: &Bus, now: u64) -> bool {
+        let Some(ex) = self.explore.as_deref_mut() else {
+            return false;
         };
         let (Some(sim), Some(plan)) = (ex.sim_home(), bus.plan.get()) else {
-            self.end_query();
-            return;
+            return false;
         };
         let [x, y, z] = self.query.rover;
         let poses = plan
@@ -801,8 +841,8 @@ impl PlannerTask {
         ex.validation_began_ns = now;
         // The old world's teardown needs no clouds: on the worker already.
         ex.sim_lend();
-        self.query.best = (best, optimal);
         self.phase = Phase::Validate;
+        true
     }
 
     /// A slice of the internal simulation; at its verdict, the plan is
@@ -854,7 +894,23 @@ impl PlannerTask {
             d.finish(ex.counters.validations, v);
         }
         ex.dump = dump;
-        tracing::debug!(outcome = ?v.outcome, drive_s = v.drive_s, goal_error_m = v.goal_error_m, start_z = self.query.rover[2], end_x = end[0], end_y = end[1], end_z = end[2], "simulated");
+        tracing::debug!(outcome = ?v.outcome, drive_s = v.drive_s, goal_error_m = v.goal_error_m, start_z = self.query.rover[2], end_x = end[0], end_y = end[1], end_z = end[2], retrace = self.query.retrace, "simulated");
+        if self.query.retrace {
+            let query = self.counters.queries;
+            if v.success() {
+                if let Some(p) = bus.plan.get() {
+                    let mut msg = p.value.clone();
+                    msg.execute = true;
+                    bus.plan.publish(now, msg);
+                }
+                ex.driving(query);
+                ex.compare_next(query);
+            } else {
+                ex.retrace_refused();
+            }
+            self.end_query();
+            return;
+        }
         if v.success() {
             let (best, optimal) = self.query.best;
             self.publish(bus, now, best, optimal, true);
@@ -1339,10 +1395,11 @@ mod tests {
         mut bus: Box<Bus>,
     ) -> (ExplorationCounters, PlanMsg, u64) {
         // A planner told the rover steps up to 0.35 m, drawn toward the
-        // far side of the ledge.
+        // far side of the ledge, and not wary of bumps (the ledge's edge).
         let cfg = PlannerConfig {
             max_step_m: 0.35,
             ground_clearance_m: 0.4,
+            bump_weight: 0.0,
             ..PlannerConfig::default()
         };
         let prims = speleo_planner::primitives::generate(&Default::default());
@@ -1381,6 +1438,72 @@ mod tests {
         }
         let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
         (ex.counters, published(&bus), frame)
+    }
+
+    /// A rover standing at x = 8 m before the ledge, its track coming
+    /// from `from_x`, stranded (no plan): the planner's steps until a
+    /// retrace is marked to be driven or `frames` pass; the counters and
+    /// the plans shown, in order.
+    fn retrace_before_a_ledge(from_x: f64, frames: u64) -> (ExplorationCounters, Vec<PlanMsg>) {
+        let mut bus = bus_before_a_ledge(8.0, false);
+        let cfg = PlannerConfig::default();
+        let prims = speleo_planner::primitives::generate(&Default::default());
+        let e = crate::config::ExplorationConfig::default();
+        let sim = speleo_simulator::InternalSim::new(Default::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0)
+            .with_simulator(sim, speleo_slam::lie::Pose::identity());
+        let ground = |x: f64| if x < 10.0 { 0.17 } else { 0.17 + LEDGE_M };
+        let steps = ((from_x - 8.0).abs() / 0.1) as u64;
+        for k in 0..=steps {
+            let x = from_x + (8.0 - from_x) * k as f64 / steps as f64;
+            bus.slam.publish(
+                k * 100_000_000,
+                SlamPose {
+                    position: [x, 2.0, ground(x)],
+                    orientation: [1.0, 0.0, 0.0, 0.0],
+                    keyframes: 1,
+                },
+            );
+            ex.observe(&mut bus, k * 100_000_000);
+        }
+        ex.no_start();
+        let mut t = PlannerTask::new(&cfg, &prims, 0.1, &[], false, 0.17)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .with_exploration(ex);
+        let mut shown: Vec<PlanMsg> = Vec::new();
+        for f in 0..frames {
+            t.step(&mut bus, &cx(steps + 1 + f), 32);
+            if let Some(p) = bus.plan.get() {
+                if shown.last() != Some(&p.value) {
+                    shown.push(p.value.clone());
+                }
+                if p.value.execute {
+                    break;
+                }
+            }
+        }
+        let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
+        (ex.counters, shown)
+    }
+
+    #[test]
+    fn a_retrace_is_driven_only_once_the_simulation_passes_it() {
+        // Back along the flat floor: shown, simulated, then driven.
+        let (c, shown) = retrace_before_a_ledge(3.0, 20_000);
+        assert_eq!((c.retraces, c.validations, c.validated), (1, 1, 1), "{c:?}");
+        assert_eq!(shown.len(), 2, "{shown:?}");
+        assert!(!shown[0].execute);
+        assert!(shown[1].execute);
+        assert_eq!(shown[0].poses, shown[1].poses);
+        assert!(shown[1].poses.len() > 2, "{:?}", shown[1]);
+        assert!(shown[1].poses.iter().all(|q| q[0] < 8.1), "{:?}", shown[1]);
+        // Back up the ledge the track came down: refused, never driven,
+        // and tried again (the other way) at the next query.
+        let (c, shown) = retrace_before_a_ledge(13.0, 20_000);
+        assert!(c.retraces_refused >= 1, "{c:?} {shown:?}");
+        assert!(shown.iter().all(|p| !p.execute), "{shown:?}");
+        assert!(c.retraces >= 2, "{c:?}");
     }
 
     #[test]
