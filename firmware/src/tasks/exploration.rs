@@ -332,12 +332,12 @@ impl Exploration {
         let Some(pose) = bus.slam.get().map(|p| p.value.position) else {
             return false;
         };
-        let trail = self.explorer.trail().points();
         // Exploring, back the way the rover came; going home, back along
         // the track from its first pass here, which leads home (from the
         // last pass, it led back out the way the rover had just come
         // home by).
         let track = self.explorer.trail();
+        let trail = track.points();
         let from = if matches!(self.explorer.mode(), Mode::Returning(_)) {
             track.earliest_near(pose, 2.0)
         } else {
