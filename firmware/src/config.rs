@@ -108,6 +108,9 @@ pub struct SimConfig {
     pub lidar: bool,
     /// Its rotation rate, 5 to 20 Hz.
     pub lidar_rate_hz: f64,
+    /// Threads that cast its rays, 1 or 2 (the second casts half of each
+    /// frame's rays; the same bytes either way).
+    pub lidar_cast_threads: usize,
     /// `physics` (rapier3d) or `kinematic` (flat-ground skid-steer, fast).
     pub rover_model: String,
     /// Drive the world's route (when it has one) instead of `control.path`.
@@ -155,6 +158,7 @@ impl Default for SimConfig {
             duration_s: 7200.0,
             lidar: true,
             lidar_rate_hz: 10.0,
+            lidar_cast_threads: 2,
             rover_model: "physics".into(),
             follow_route: true,
             out_and_back: true,
@@ -572,6 +576,13 @@ impl Config {
         let s = &self.sim;
         range("sim.duration_s", s.duration_s, 0.0, 1.0e7, "0..=10000000")?;
         range("sim.lidar_rate_hz", s.lidar_rate_hz, 5.0, 20.0, "5..=20")?;
+        range(
+            "sim.lidar_cast_threads",
+            s.lidar_cast_threads,
+            1,
+            2,
+            "1..=2",
+        )?;
         range(
             "sim.route_length_m",
             s.route_length_m,

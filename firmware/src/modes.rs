@@ -477,6 +477,7 @@ pub fn sim_params(cfg: &Config) -> SimParams {
         },
         lidar: cfg.sim.lidar.then(|| speleo_hal::sim::lidar::LidarParams {
             rate_hz: cfg.sim.lidar_rate_hz,
+            cast_threads: cfg.sim.lidar_cast_threads,
             ..Default::default()
         }),
         lidar_mount: {

@@ -1,6 +1,6 @@
 //! Same inputs, bit-identical outputs; another seed, other outputs.
 
-use speleo_tests::{read_json, sim, Scratch};
+use speleo_tests::{read_json, sim, sim_with_config, Scratch};
 
 #[test]
 fn the_same_seed_gives_the_same_output_hash() {
@@ -19,4 +19,17 @@ fn the_same_seed_gives_the_same_output_hash() {
         a["output_hash"], c["output_hash"],
         "another seed must give other outputs"
     );
+}
+
+#[test]
+fn one_thread_or_two_casting_the_lidar_rays_give_the_same_outputs() {
+    let s = Scratch::new();
+    let one = s.path("one.toml");
+    std::fs::write(&one, "[sim]\nlidar_cast_threads = 1\n").expect("write config");
+    let (a, b) = (s.path("a.json"), s.path("b.json"));
+    sim_with_config(3, 5.0, Some(&one), None, Some(&a));
+    sim(3, 5.0, None, Some(&b));
+    let (a, b) = (read_json(&a), read_json(&b));
+    assert_eq!(a["frames"], 500);
+    assert_eq!(a["output_hash"], b["output_hash"]);
 }

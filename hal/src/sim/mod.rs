@@ -17,6 +17,7 @@ pub mod lidar;
 pub mod noise;
 pub mod physics;
 pub mod quat;
+pub mod ray_caster;
 pub mod rover;
 
 use crate::can::CanFrame;
@@ -213,13 +214,17 @@ impl Hardware for SimHardware {
             if let LidarTwin::On(_) = self.lidar {
                 let (p0, p1) = (self.sensor_pose(&before), self.sensor_pose(&after));
                 if let LidarTwin::On(l) = &mut self.lidar {
-                    l.advance(self.t_ns, self.t_ns + STEP_NS, &p0, &p1);
+                    l.queue(self.t_ns, self.t_ns + STEP_NS, &p0, &p1);
                 }
             }
             self.t_ns += STEP_NS;
             self.drives.observe(&after);
             self.imu.observe(&after);
             self.imu.maybe_sample(self.t_ns, &after);
+        }
+        // The frame's rays in one batch, on two cores.
+        if let LidarTwin::On(l) = &mut self.lidar {
+            l.flush();
         }
         self.truth.set(self.motion.state(self.t_ns));
     }
