@@ -320,6 +320,7 @@ pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParam
         // there).
         tip_over_deg: s.tip_over_deg.min(cfg.control.max_tilt_deg),
         stuck_after_s: s.stuck_after_s,
+        newest_keyframes: s.newest_keyframes,
         base_height_m: base_height_m(cfg),
         ..speleo_simulator::SimulatorParams::default()
     }

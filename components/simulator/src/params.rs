@@ -16,8 +16,10 @@ pub struct SimulatorParams {
     pub max_blocks: usize,
     /// The world is the box around the plan grown by this, m.
     pub margin_m: f64,
-    /// Keyframes whose sensor is within this of that box are integrated, m.
+    /// Keyframes whose sensor is within this of that box are integrated, m,
+    /// the newest `newest_keyframes` of them.
     pub cloud_range_m: f64,
+    pub newest_keyframes: usize,
     /// Width of a meshing tile (one rapier collider each), m.
     pub tile_m: f64,
     /// Physics step, s.
@@ -64,6 +66,7 @@ impl Default for SimulatorParams {
             max_blocks: 16_384,
             margin_m: 2.0,
             cloud_range_m: 15.0,
+            newest_keyframes: 20,
             tile_m: 0.25,
             dt_s: 0.01,
             settle_s: 0.5,
@@ -98,6 +101,9 @@ impl SimulatorParams {
         }
         if self.max_blocks == 0 {
             return Err("simulator max_blocks must be positive".into());
+        }
+        if self.newest_keyframes == 0 {
+            return Err("simulator newest_keyframes must be positive".into());
         }
         self.physics.validate()
     }

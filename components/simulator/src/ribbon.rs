@@ -70,6 +70,52 @@ pub fn pad(terrain: &Terrain, at: [f64; 3], half: f64) -> Mesh {
     mesh
 }
 
+/// Rings round the rover where its floor is looked for, m: past the
+/// wheels, and out to where the scans of the rover's own position see the
+/// ground.
+const FLOOR_RINGS_M: [f64; 3] = [0.8, 1.2, 1.6];
+const FLOOR_RING_SAMPLES: usize = 16;
+/// Columns searched for the floor (the cost of `floor_around`).
+pub const FLOOR_SAMPLES: usize = FLOOR_RINGS_M.len() * FLOOR_RING_SAMPLES;
+/// The floor is looked for this far over and under the estimate, m.
+const FLOOR_SEARCH_M: f64 = 0.25;
+/// Fewest seen columns for the floor to count.
+const FLOOR_MIN_SAMPLES: usize = 8;
+
+/// The height of the seen floor round `at` (x, y, the estimated ground
+/// z): the median of the seen ground on rings round it, within
+/// `FLOOR_SEARCH_M` of the estimate (on a plane, opposite samples average
+/// to the height at the centre). None where too little of it was seen.
+///
+/// Why: the ground under the rover is never in its scans, and the pad that
+/// stands for it was laid at the estimated height. When SLAM's estimate of
+/// the rover sat 11 cm under the floor its older keyframes had mapped (the
+/// garage's first level, before a loop closure), the pad made an 11 cm pit
+/// round the rover and the simulated rover, turning round on the spot at
+/// the start of a retrace, caught its legs on the rim: stuck, again and
+/// again, where the real rover turned freely.
+pub fn floor_around(terrain: &Terrain, at: [f64; 3]) -> Option<f64> {
+    let mut seen = [0.0f64; FLOOR_SAMPLES];
+    let mut n = 0;
+    for r in FLOOR_RINGS_M {
+        for k in 0..FLOOR_RING_SAMPLES {
+            let a = std::f64::consts::TAU * k as f64 / FLOOR_RING_SAMPLES as f64;
+            let (x, y) = (at[0] + r * a.cos(), at[1] + r * a.sin());
+            if let Some(z) = terrain.surface_z(x, y, at[2] + FLOOR_SEARCH_M, at[2] - FLOOR_SEARCH_M)
+            {
+                seen[n] = z;
+                n += 1;
+            }
+        }
+    }
+    if n < FLOOR_MIN_SAMPLES {
+        return None;
+    }
+    let seen = &mut seen[..n];
+    seen.sort_by(f64::total_cmp);
+    Some(seen[n / 2])
+}
+
 /// Two triangles for each cell of the `rows` x `cols` grid of `mesh`'s
 /// vertices (row after row), all rock.
 fn triangulate_grid(mesh: &mut Mesh, rows: usize, cols: usize) {
@@ -222,6 +268,11 @@ mod tests {
     /// Scans of the ground `z(x, y)` from a sensor 1 m over it at the
     /// origin and at x = 3, every 5 cm over 8 m by 4 m.
     fn terrain(z: impl Fn(f64, f64) -> f64) -> Terrain {
+        terrain_seen(z, |_, _| true)
+    }
+
+    /// As `terrain`, with only the points where `seen` holds.
+    fn terrain_seen(z: impl Fn(f64, f64) -> f64, seen: impl Fn(f64, f64) -> bool) -> Terrain {
         let mut t = Terrain::new(&crate::SimulatorParams::default()).expect("terrain");
         t.begin([-2.0, -2.0, -1.5], [6.0, 2.0, 2.5]);
         for ox in [0.0, 3.0] {
@@ -229,7 +280,9 @@ mod tests {
             for i in 0..160 {
                 for j in 0..80 {
                     let (x, y) = (-2.0 + 0.05 * i as f64, -2.0 + 0.05 * j as f64);
-                    pts.push([x, y, z(x, y)]);
+                    if seen(x, y) {
+                        pts.push([x, y, z(x, y)]);
+                    }
                 }
             }
             t.integrate([ox, 0.0, z(ox, 0.0) + 1.0], &mut pts);
@@ -275,5 +328,38 @@ mod tests {
             let under = z(v[0] as f64, 0.0) - v[2] as f64;
             assert!(under > 0.0 && under < 0.08, "{v:?}: {under}");
         }
+    }
+
+    #[test]
+    fn the_floor_round_the_rover_is_the_seen_one_not_the_estimate() {
+        // A floor 11 cm over the estimate (SLAM's estimate of the rover
+        // sank), and a slope: the median of the rings is the height at the
+        // centre.
+        let flat = terrain(|_, _| 0.11);
+        let f = floor_around(&flat, [1.5, 0.0, 0.0]).expect("seen floor");
+        assert!((f - 0.11).abs() < 0.03, "{f}");
+        let slope = terrain(|x, _| 0.1 * x);
+        let f = floor_around(&slope, [1.5, 0.0, 0.12]).expect("seen floor");
+        assert!((f - 0.15).abs() < 0.03, "{f}");
+        // Nothing within the search window: no answer.
+        assert!(floor_around(&flat, [1.5, 0.0, 0.6]).is_none());
+    }
+
+    #[test]
+    fn the_pad_laid_at_the_seen_floor_has_no_pit() {
+        // Nothing seen within 0.6 m of the rover, as from its own mast.
+        let t = terrain_seen(|_, _| 0.11, |x, y| (x - 1.5).hypot(y) > 0.6);
+        let low = pad(&t, [1.5, 0.0, 0.0], 1.0);
+        let level = pad(
+            &t,
+            [1.5, 0.0, floor_around(&t, [1.5, 0.0, 0.0]).expect("floor")],
+            1.0,
+        );
+        let lowest = |m: &Mesh| m.vertices.iter().map(|v| v[2]).fold(f32::MAX, f32::min);
+        let highest = |m: &Mesh| m.vertices.iter().map(|v| v[2]).fold(f32::MIN, f32::max);
+        // At the estimate the unseen middle lies lower than the seen rim...
+        assert!(highest(&low) - lowest(&low) > 0.05);
+        // ...at the seen floor it does not.
+        assert!(highest(&level) - lowest(&level) < 0.03);
     }
 }

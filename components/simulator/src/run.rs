@@ -80,10 +80,12 @@ enum Phase {
     Teardown,
     /// Clearing the TSDF for this validation's box.
     Clear,
-    /// Integrating keyframe `k` from point `from`.
+    /// Integrating keyframe `k - 1` from point `from`, newest first,
+    /// `used` keyframes integrated so far.
     Integrate {
         k: usize,
         from: usize,
+        used: usize,
     },
     /// The rover put down, with the ground the scans miss: a pad under
     /// it and a strip along the plan.
@@ -357,12 +359,17 @@ impl InternalSim {
                     self.phase = if self.given_ground.is_some() {
                         Phase::Base
                     } else {
-                        Phase::Integrate { k: 0, from: 0 }
+                        // From the newest keyframe there is when it begins.
+                        Phase::Integrate {
+                            k: usize::MAX,
+                            from: 0,
+                            used: 0,
+                        }
                     };
                 }
-                Phase::Integrate { k, from } => {
+                Phase::Integrate { k, from, used } => {
                     if let Some(c) = clouds {
-                        self.phase = self.integrate(c, k, from);
+                        self.phase = self.integrate(c, k, from, used);
                     }
                 }
                 Phase::Base => {
@@ -402,12 +409,34 @@ impl InternalSim {
         Phase::Clear
     }
 
-    fn integrate(&mut self, clouds: &impl CloudSource, k: usize, from: usize) -> Phase {
-        if k >= clouds.keyframes() {
+    /// Keyframe `k - 1` integrated from point `from` (a unit's worth),
+    /// when it is near the plan's box and not far under its ground; the
+    /// newest `newest_keyframes` of those only.
+    ///
+    /// Why the newest: where the rover comes back, SLAM may not yet have
+    /// closed the loop between its latest keyframes, which agree with its
+    /// estimated pose, and those of its first pass. In the garage the two
+    /// passes' floors lay 11 cm apart; integrated together they made a
+    /// floor of two layers and fragments over it, and the simulated rover,
+    /// turning round on the spot there, stuck on them at every retrace
+    /// while the real one turned freely. The newest 20 made one floor.
+    fn integrate(
+        &mut self,
+        clouds: &impl CloudSource,
+        k: usize,
+        from: usize,
+        used: usize,
+    ) -> Phase {
+        let k = k.min(clouds.keyframes());
+        if k == 0 || used >= self.p.newest_keyframes {
             return Phase::Base;
         }
-        let next = Phase::Integrate { k: k + 1, from: 0 };
-        let Some(origin) = clouds.origin(k) else {
+        let next = Phase::Integrate {
+            k: k - 1,
+            from: 0,
+            used,
+        };
+        let Some(origin) = clouds.origin(k - 1) else {
             return next;
         };
         if !self.terrain.near(origin, self.p.cloud_range_m)
@@ -415,15 +444,20 @@ impl InternalSim {
         {
             return next;
         }
-        let more = clouds.points(k, from, POINTS_PER_UNIT, &mut self.scratch);
+        let more = clouds.points(k - 1, from, POINTS_PER_UNIT, &mut self.scratch);
         self.counters.points_integrated += self.terrain.integrate(origin, &mut self.scratch);
         if more {
             Phase::Integrate {
                 k,
                 from: from + POINTS_PER_UNIT,
+                used,
             }
         } else {
-            next
+            Phase::Integrate {
+                k: k - 1,
+                from: 0,
+                used: used + 1,
+            }
         }
     }
 
@@ -445,6 +479,11 @@ impl InternalSim {
             }
             return mesh.vertices.len();
         }
+        // On the floor the map has round the rover, where it saw one: the
+        // estimate may sit under it or over it (see `ribbon::floor_around`).
+        let estimate = z - self.p.base_height_m;
+        let floor = ribbon::floor_around(&self.terrain, [x, y, estimate]).unwrap_or(estimate);
+        let ground = [x, y, floor + DROP_M, yaw];
         match PhysicsRover::new(&self.p.physics, &Mesh::default(), ground, self.p.dt_s) {
             Ok(mut r) => {
                 // The LiDAR cannot see the ground under and around the
@@ -459,7 +498,7 @@ impl InternalSim {
                 let _ = r.add_ground(&strip);
                 self.rover = Some(Box::new(r));
                 self.phase = Phase::Ground { tile: 0 };
-                pad.vertices.len() + strip.vertices.len()
+                pad.vertices.len() + strip.vertices.len() + ribbon::FLOOR_SAMPLES
             }
             Err(_) => {
                 self.phase = self.finish(Outcome::NoGround);

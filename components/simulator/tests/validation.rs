@@ -313,3 +313,61 @@ fn on_given_ground_a_plan_is_driven_as_on_the_clouds() {
     assert_eq!(drive(floor_with_ledge(12.0, 0.0)), Outcome::Reached);
     assert_ne!(drive(floor_with_ledge(2.0, 0.45)), Outcome::Reached);
 }
+
+/// The same floor scanned on two passes whose poses SLAM has not yet
+/// brought together: the first pass put it `offset` higher than the
+/// second, which agrees with the rover's estimate.
+struct TwoPasses {
+    first: Scans,
+    second: Scans,
+}
+
+impl CloudSource for TwoPasses {
+    fn keyframes(&self) -> usize {
+        self.first.keyframes() + self.second.keyframes()
+    }
+    fn origin(&self, k: usize) -> Option<[f64; 3]> {
+        match k.checked_sub(self.first.keyframes()) {
+            None => self.first.origin(k),
+            Some(s) => self.second.origin(s),
+        }
+    }
+    fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
+        match k.checked_sub(self.first.keyframes()) {
+            None => self.first.points(k, from, n, out),
+            Some(s) => self.second.points(s, from, n, out),
+        }
+    }
+}
+
+#[test]
+fn the_world_is_made_of_the_newest_pass_over_a_place() {
+    // 11 cm between the passes, as in the garage before a loop closure.
+    let scans = TwoPasses {
+        first: Scans::new(|_| 0.11),
+        second: Scans::new(|_| 0.0),
+    };
+    let drive = |newest: usize| {
+        let p = SimulatorParams {
+            newest_keyframes: newest,
+            ..SimulatorParams::default()
+        };
+        let mut sim = InternalSim::new(p).expect("sim");
+        run_on(&mut sim, &scans, 0.0, plan(|_| 0.0), 32)
+    };
+    let base = SimulatorParams::default().base_height_m;
+    // Worst height of the simulated rover over the second pass's floor.
+    let off_floor = |prediction: &[[f64; 3]]| {
+        prediction
+            .iter()
+            .map(|q| (q[2] - base).abs())
+            .fold(0.0f64, f64::max)
+    };
+    // The newest five keyframes are the second pass: its floor alone.
+    let (outcome, prediction, err) = drive(5);
+    assert_eq!(outcome, Outcome::Reached, "{err}");
+    assert!(off_floor(&prediction) < 0.03, "{}", off_floor(&prediction));
+    // Both passes: a floor between the two.
+    let (_, prediction, _) = drive(10);
+    assert!(off_floor(&prediction) > 0.03, "{}", off_floor(&prediction));
+}

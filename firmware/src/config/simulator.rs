@@ -26,6 +26,9 @@ pub struct SimulatorConfig {
     pub tip_over_deg: f64,
     /// Commanded this long without 0.1 m of progress: stuck, s.
     pub stuck_after_s: f64,
+    /// The world is made of the newest this many keyframes near the plan
+    /// (older passes may not agree with them before SLAM closes the loop).
+    pub newest_keyframes: usize,
     /// Work units a frame done on a core of its own (a worker thread the
     /// planner task lends the validation to and takes it back from the
     /// next frame): everything but the clouds' integration. A physics
@@ -53,6 +56,7 @@ impl Default for SimulatorConfig {
             goal_tolerance_m: p.goal_tolerance_m,
             tip_over_deg: p.tip_over_deg,
             stuck_after_s: p.stuck_after_s,
+            newest_keyframes: p.newest_keyframes,
             worker_units: 120,
             dump_dir: None,
         }
@@ -86,6 +90,13 @@ impl SimulatorConfig {
             0.5,
             120.0,
             "0.5..=120",
+        )?;
+        range(
+            &k("newest_keyframes"),
+            self.newest_keyframes,
+            1,
+            100_000,
+            "1..=100000",
         )?;
         range(&k("worker_units"), self.worker_units, 0, 4096, "0..=4096")?;
         Ok(())
