@@ -360,7 +360,7 @@ impl SimLidar {
                     continue;
                 }
                 firing.live |= 1 << l;
-                firing.noise[l] = self.noise.quick_gaussian() as f32;
+                firing.noise[l] = self.noise.gaussian() as f32;
                 let u = l as f64 / LASERS as f64;
                 let origin = [
                     pa[0] + (pb[0] - pa[0]) * u,

@@ -29,23 +29,7 @@ impl Noise {
         }
         s - 6.0
     }
-
-    /// Approximately standard normal from a single draw: the Irwin-Hall sum
-    /// of the draw's four 16-bit uniforms, scaled to unit variance, so it
-    /// stays within +-3.46. For the LiDAR twin's range noise, whose ~580,000
-    /// draws a simulated second made `gaussian`'s twelve uniforms a tenth of
-    /// its time.
-    pub fn quick_gaussian(&mut self) -> f64 {
-        let r = self.rng.next_u64();
-        let lane = |k: u32| ((r >> (16 * k)) & 0xFFFF) as f64 + 0.5;
-        let sum = (lane(0) + lane(1) + lane(2) + lane(3)) * (1.0 / 65536.0);
-        // Four uniforms: mean 2, variance 1/3.
-        (sum - 2.0) * SQRT_3
-    }
 }
-
-/// sqrt(3), written out so that no libm call is involved.
-const SQRT_3: f64 = 1.732_050_807_568_877_2;
 
 #[cfg(test)]
 mod tests {
@@ -67,13 +51,6 @@ mod tests {
     fn gaussian_moments() {
         let mut n = Noise::new(1, 0);
         let xs: Vec<f64> = (0..20_000).map(|_| n.gaussian()).collect();
-        moments_are_standard(&xs);
-        let ys: Vec<f64> = (0..20_000).map(|_| n.quick_gaussian()).collect();
-        moments_are_standard(&ys);
-        assert!(ys.iter().all(|y| y.abs() < 3.47));
-    }
-
-    fn moments_are_standard(xs: &[f64]) {
         let mean = xs.iter().sum::<f64>() / xs.len() as f64;
         let var = xs.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / xs.len() as f64;
         assert!(mean.abs() < 0.03, "{mean}");
