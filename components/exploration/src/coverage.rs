@@ -27,6 +27,13 @@ const LEVEL_CELL_M: f64 = 1.0;
 /// A point this far over or under the heights the rover marked it from is
 /// on another level: not covered, m.
 pub const LEVEL_BAND_M: f64 = 1.5;
+/// Over the heights the rover marked it from, a point is covered only this
+/// far up, m: a cliff's edge is below the rover, and ground up a slope is
+/// seen better from nearer. (In the garage, a rover 2 m short of a ramp's
+/// top found no candidate and never went up, likely because its marks
+/// covered the next level's edge 0.5 m over it, which the LiDAR sees from
+/// the ramp only at grazing angles.)
+pub const COVERED_ABOVE_M: f64 = 0.4;
 
 impl CoverageMap {
     /// A square of `extent_m` around `centre`, in cells of `resolution_m`.
@@ -101,15 +108,23 @@ impl CoverageMap {
         }
     }
 
-    /// Whether (x, y) at height `z` is covered (outside the grid: no).
+    /// Whether (x, y) at height `z` is covered (outside the grid: no):
+    /// from `LEVEL_BAND_M` under the heights the rover marked it from to
+    /// `COVERED_ABOVE_M` over them.
     pub fn covered(&self, x: f64, y: f64, z: f64) -> bool {
+        self.within(x, y, z, COVERED_ABOVE_M)
+    }
+
+    /// Whether (x, y) was marked from heights whose span, widened by
+    /// `LEVEL_BAND_M` under it and `above_m` over it, holds `z`.
+    fn within(&self, x: f64, y: f64, z: f64, above_m: f64) -> bool {
         self.marked(x, y)
             && self.level_index(x, y).is_some_and(|i| {
                 let (lo, hi) = self.levels[i];
                 let zc = z * 100.0;
                 lo <= hi
                     && zc >= lo as f64 - LEVEL_BAND_M * 100.0
-                    && zc <= hi as f64 + LEVEL_BAND_M * 100.0
+                    && zc <= hi as f64 + above_m * 100.0
             })
     }
 
@@ -118,7 +133,7 @@ impl CoverageMap {
     /// marked the place from (a ramp's upper part over the floor driven
     /// under it).
     pub fn level_apart(&self, x: f64, y: f64, z: f64) -> bool {
-        self.marked(x, y) && !self.covered(x, y, z)
+        self.marked(x, y) && !self.within(x, y, z, LEVEL_BAND_M)
     }
 
     /// Whether (x, y) lies near the rover's track, at any height.
@@ -162,7 +177,7 @@ mod tests {
         // covered, the ground the rover drove is.
         let mut c = CoverageMap::new([0.0, 0.0], 20.0, 0.25);
         c.mark(1.0, 1.0, 0.2, 2.0);
-        assert!(c.covered(1.5, 1.0, 0.0) && c.covered(1.5, 1.0, 1.2));
+        assert!(c.covered(1.5, 1.0, 0.0) && c.covered(1.5, 1.0, 0.5));
         assert!(!c.covered(1.5, 1.0, 3.0));
         assert!(c.level_apart(1.5, 1.0, 3.0) && !c.level_apart(1.5, 1.0, 0.0));
         assert!(
@@ -172,5 +187,20 @@ mod tests {
         c.mark(1.0, 1.0, 3.2, 2.0);
         assert!(!c.level_apart(1.5, 1.0, 3.0));
         assert!(c.covered(1.5, 1.0, 3.0) && c.covered(1.5, 1.0, 0.0));
+    }
+
+    #[test]
+    fn ground_up_a_slope_is_covered_only_near_the_rovers_height() {
+        // On a ramp at 5.3 m, 2 m short of the next level (6 m): the level's
+        // edge is left to explore, the ramp down behind and a drop's foot
+        // 1.4 m under the rover are covered; neither is a level apart.
+        let mut c = CoverageMap::new([0.0, 0.0], 20.0, 0.25);
+        c.mark(0.0, 0.0, 5.3, 3.0);
+        assert!(!c.covered(2.0, 0.0, 6.0) && !c.level_apart(2.0, 0.0, 6.0));
+        assert!(c.covered(-2.0, 0.0, 4.6) && c.covered(2.0, 0.0, 5.6));
+        assert!(c.covered(2.0, 0.0, 3.9) && !c.level_apart(2.0, 0.0, 3.9));
+        // Once the rover stands up there, it is covered.
+        c.mark(2.0, 0.0, 6.1, 3.0);
+        assert!(c.covered(2.0, 0.0, 6.0));
     }
 }

@@ -242,6 +242,19 @@ impl Explorer {
         true
     }
 
+    /// Exploring from `at` is stuck (no candidate, and every way back the
+    /// rover came refused by the simulation): home by plans instead, true.
+    /// Exploring does not resume within [`RESUME_AGAIN_M`] of here.
+    pub fn give_up_here(&mut self, at: [f64; 2]) -> bool {
+        if self.mode != Mode::Exploring {
+            return false;
+        }
+        self.resumed = false;
+        self.resumed_in_vain_at = Some(at);
+        self.mode = Mode::Returning(ReturnReason::Explored);
+        true
+    }
+
     /// Going home from `at`: goal points `ahead_m`, then a metre less at a
     /// time down to `nearest_m`, back along the track (home itself when
     /// near).

@@ -190,6 +190,8 @@ pub struct Exploration {
     escape_attempts: u32,
     /// Where the last retrace began, and whether it was driven backward.
     retraced_from: Option<([f64; 3], bool)>,
+    /// Retraces refused in a row where the last one began.
+    refused_here: u32,
     /// Plans in a row stopped for tilt where the one before was (see
     /// [`Exploration::count_tilt_stall`]), and where that was.
     tilt_stalls: u32,
@@ -199,6 +201,9 @@ pub struct Exploration {
 /// Escapes from a stuck place, in turn: a back-out backward, one forward,
 /// a retrace along the track forward, one backward.
 const ESCAPE_ROUND: u32 = 4;
+/// Retraces refused in a row at one place (each way twice) after which
+/// the rover stops retracing there.
+const RETRACE_REFUSALS_HERE: u32 = 4;
 /// Tilt stops in a row without moving after which the rover is stranded.
 const TILT_STALLS_TO_STRAND: u32 = 6;
 /// Tilt stops this near each other count as one place, m.
@@ -254,6 +259,7 @@ impl Exploration {
             second_look_taken: false,
             escape_attempts: 0,
             retraced_from: None,
+            refused_here: 0,
             tilt_stalls: 0,
             last_tilt_stop: [f64::INFINITY; 3],
         }
@@ -382,6 +388,10 @@ impl Exploration {
             Some((p, b)) if (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M => !b,
             _ => false,
         };
+        if !matches!(self.retraced_from, Some((p, _)) if (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M)
+        {
+            self.refused_here = 0;
+        }
         self.retraced_from = Some((pose, backward));
         let turn = if backward { core::f64::consts::PI } else { 0.0 };
         for i in 0..n {
@@ -416,10 +426,35 @@ impl Exploration {
     }
 
     /// The simulation refused the retrace shown: nothing is driven, and
-    /// the next query retraces again (the other way, from here).
+    /// the next query retraces again (the other way, from here). After
+    /// [`RETRACE_REFUSALS_HERE`] refusals in a row at one place, exploring
+    /// goes home by plans; on the way home, the rover is stranded. (In the
+    /// garage, refused retraces on a ramp, each tried again at once the
+    /// other way, burned the rest of the mission: 1,337 of them.)
     pub fn retrace_refused(&mut self) {
         self.counters.retraces_refused += 1;
         self.stranded = true;
+        self.refused_here += 1;
+        if self.refused_here < RETRACE_REFUSALS_HERE {
+            return;
+        }
+        self.refused_here = 0;
+        self.stranded = false;
+        let at = self.retraced_from.map_or([f64::NAN; 3], |(p, _)| p);
+        if self.explorer.give_up_here([at[0], at[1]]) {
+            tracing::info!(
+                x = at[0],
+                y = at[1],
+                "every retrace refused here: home by plans"
+            );
+        } else {
+            tracing::warn!(
+                x = at[0],
+                y = at[1],
+                "stranded: every retrace home refused by the simulation"
+            );
+            self.explorer.strand();
+        }
     }
 
     /// Get off what held the rover: straight along its body axis, without
@@ -517,6 +552,7 @@ impl Exploration {
         self.executing = query;
         self.counters.plans_executed += 1;
         self.explorer.driven();
+        self.refused_here = 0;
         self.back_out = false;
         self.backing_out = false;
     }

@@ -1445,6 +1445,15 @@ mod tests {
     /// retrace is marked to be driven or `frames` pass; the counters and
     /// the plans shown, in order.
     fn retrace_before_a_ledge(from_x: f64, frames: u64) -> (ExplorationCounters, Vec<PlanMsg>) {
+        let (c, shown, _) = retraces_before_a_ledge(from_x, frames);
+        (c, shown)
+    }
+
+    /// [`retrace_before_a_ledge`], and the explorer's mode at the end.
+    fn retraces_before_a_ledge(
+        from_x: f64,
+        frames: u64,
+    ) -> (ExplorationCounters, Vec<PlanMsg>, Mode) {
         let mut bus = bus_before_a_ledge(8.0, false);
         let cfg = PlannerConfig::default();
         let prims = speleo_planner::primitives::generate(&Default::default());
@@ -1482,9 +1491,22 @@ mod tests {
                     break;
                 }
             }
+            if t.exploration().is_some_and(|e| e.mode() == Mode::Stranded) {
+                break;
+            }
         }
         let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
-        (ex.counters, shown)
+        (ex.counters, shown, ex.mode())
+    }
+
+    #[test]
+    fn retraces_refused_again_and_again_at_one_place_end_in_going_home_not_a_loop() {
+        // Only back up the ledge leads anywhere: four refusals, then home
+        // by plans (none, the ledge is the only way), four more, stranded.
+        let (c, shown, mode) = retraces_before_a_ledge(13.0, 200_000);
+        assert!(shown.iter().all(|p| !p.execute), "{shown:?}");
+        assert_eq!(mode, Mode::Stranded, "{c:?}");
+        assert_eq!(c.retraces_refused, 8, "{c:?}");
     }
 
     #[test]
