@@ -384,12 +384,11 @@ impl Exploration {
         // rover on a rim, stop after stop for the rest of the mission.
         // (Backward every time, the lava tube's rover tilted backing down
         // a slope it had driven up.)
-        let backward = match self.retraced_from {
-            Some((p, b)) if (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M => !b,
-            _ => false,
-        };
-        if !matches!(self.retraced_from, Some((p, _)) if (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M)
-        {
+        let again_here = self
+            .retraced_from
+            .filter(|(p, _)| (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M);
+        let backward = again_here.is_some_and(|(_, b)| !b);
+        if again_here.is_none() {
             self.refused_here = 0;
         }
         self.retraced_from = Some((pose, backward));
