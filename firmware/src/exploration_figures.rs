@@ -53,9 +53,6 @@ pub struct ExplorationFigures {
     pub retraces: u64,
     /// Retraces the internal simulation refused (not driven).
     pub retraces_refused: u64,
-    /// Retraces driven backward without the simulation's pass, as a last
-    /// resort on the way home when every other way was refused.
-    pub retraces_unvalidated: u64,
     /// Returns home that found something to explore on the way.
     pub resumes: u64,
     /// Stuck stops the rover backed out of; each place became an obstacle.
@@ -96,7 +93,6 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         partial_plans: e.counters.partial_plans,
         retraces: e.counters.retraces,
         retraces_refused: e.counters.retraces_refused,
-        retraces_unvalidated: e.counters.retraces_unvalidated,
         resumes: e.counters.resumes,
         backed_out: e.counters.backed_out,
         second_looks: e.counters.second_looks,

@@ -33,9 +33,6 @@ pub struct ExplorationCounters {
     pub retraces: u64,
     /// Retraces the internal simulation refused (not driven).
     pub retraces_refused: u64,
-    /// Retraces driven backward without the simulation's pass, as a last
-    /// resort on the way home (see [`Exploration::retrace_refused`]).
-    pub retraces_unvalidated: u64,
     /// Returns home that found something explorable on the way and went
     /// back to exploring.
     pub resumes: u64,
@@ -195,10 +192,6 @@ pub struct Exploration {
     retraced_from: Option<([f64; 3], bool)>,
     /// Retraces refused in a row where the last one began.
     refused_here: u32,
-    /// The next retrace is driven backward without the simulation.
-    unvalidated_next: bool,
-    /// Where the last unvalidated retrace began.
-    unvalidated_from: Option<[f64; 3]>,
     /// Plans in a row stopped for tilt where the one before was (see
     /// [`Exploration::count_tilt_stall`]), and where that was.
     tilt_stalls: u32,
@@ -211,9 +204,6 @@ const ESCAPE_ROUND: u32 = 4;
 /// Retraces refused in a row at one place (each way twice) after which
 /// the rover stops retracing there.
 const RETRACE_REFUSALS_HERE: u32 = 4;
-/// An unvalidated retrace that left the rover within this of where it
-/// began got nowhere: the rover is stranded there, m.
-const UNVALIDATED_AGAIN_M: f64 = 1.0;
 /// Tilt stops in a row without moving after which the rover is stranded.
 const TILT_STALLS_TO_STRAND: u32 = 6;
 /// Tilt stops this near each other count as one place, m.
@@ -270,8 +260,6 @@ impl Exploration {
             escape_attempts: 0,
             retraced_from: None,
             refused_here: 0,
-            unvalidated_next: false,
-            unvalidated_from: None,
             tilt_stalls: 0,
             last_tilt_stop: [f64::INFINITY; 3],
         }
@@ -364,8 +352,7 @@ impl Exploration {
         let Some(from) = from else {
             return false;
         };
-        let unvalidated = core::mem::take(&mut self.unvalidated_next);
-        let validate = self.validates() && !unvalidated;
+        let validate = self.validates();
         let mut msg = PlanMsg {
             query,
             execute: !validate,
@@ -400,7 +387,7 @@ impl Exploration {
         let again_here = self
             .retraced_from
             .filter(|(p, _)| (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M);
-        let backward = unvalidated || again_here.is_some_and(|(_, b)| !b);
+        let backward = again_here.is_some_and(|(_, b)| !b);
         if again_here.is_none() {
             self.refused_here = 0;
         }
@@ -428,15 +415,6 @@ impl Exploration {
             backward,
             "retracing"
         );
-        if unvalidated {
-            self.counters.retraces_unvalidated += 1;
-            self.unvalidated_from = Some(pose);
-            tracing::warn!(
-                x = pose[0],
-                y = pose[1],
-                "retracing backward without the simulation: every way home from here was refused"
-            );
-        }
         if !validate {
             self.executing = query;
             self.counters.plans_executed += 1;
@@ -449,15 +427,9 @@ impl Exploration {
     /// The simulation refused the retrace shown: nothing is driven, and
     /// the next query retraces again (the other way, from here). After
     /// [`RETRACE_REFUSALS_HERE`] refusals in a row at one place, exploring
-    /// goes home by plans. (In the garage, refused retraces on a ramp, each
-    /// tried again at once the other way, burned the rest of the mission:
-    /// 1,337 of them.) On the way home, the last resort is the track the
-    /// rover came by, driven backward without the simulation's pass (the
-    /// safety monitor still watches it): in another lava tube every way
-    /// home was refused 145 m from home, the simulated rover stuck on the
-    /// map against a wall beside the track it had come by (on the true
-    /// surface it passed). When that got nowhere either, the rover is
-    /// stranded.
+    /// goes home by plans; on the way home, the rover is stranded. (In the
+    /// garage, refused retraces on a ramp, each tried again at once the
+    /// other way, burned the rest of the mission: 1,337 of them.)
     pub fn retrace_refused(&mut self) {
         self.counters.retraces_refused += 1;
         self.stranded = true;
@@ -474,19 +446,13 @@ impl Exploration {
                 y = at[1],
                 "every retrace refused here: home by plans"
             );
-        } else if self
-            .unvalidated_from
-            .is_some_and(|p| (p[0] - at[0]).hypot(p[1] - at[1]) < UNVALIDATED_AGAIN_M)
-        {
+        } else {
             tracing::warn!(
                 x = at[0],
                 y = at[1],
                 "stranded: every retrace home refused by the simulation"
             );
             self.explorer.strand();
-        } else {
-            self.unvalidated_next = true;
-            self.stranded = true;
         }
     }
 
