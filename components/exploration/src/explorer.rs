@@ -233,13 +233,7 @@ impl Explorer {
     /// resume, the return goes on (true) instead of the rover casting
     /// about for a way on.
     pub fn resumed_in_vain(&mut self, at: [f64; 2]) -> bool {
-        if !self.resumed || self.mode != Mode::Exploring {
-            return false;
-        }
-        self.resumed = false;
-        self.resumed_in_vain_at = Some(at);
-        self.mode = Mode::Returning(ReturnReason::Explored);
-        true
+        self.resumed && self.give_up_here(at)
     }
 
     /// Exploring from `at` is stuck (no candidate, and every way back the
