@@ -878,12 +878,14 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
         .windows(2)
         .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
         .sum();
-    let [x, y, z, yaw] = case.start;
+    let [x, y, z, yaw] = case.start.xyz_yaw();
     println!(
-        "case: at {:.1} s from ({x:.2}, {y:.2}, {z:.2}) heading {:.1} deg, plan {} poses {length:.2} m, \
-         {} keyframes, {} points read",
+        "case: at {:.1} s from ({x:.2}, {y:.2}, {z:.2}) heading {:.1} deg (pitch {:.1}, roll {:.1}), \
+         plan {} poses {length:.2} m, {} keyframes, {} points read",
         case.began_ns as f64 * 1e-9,
         yaw.to_degrees(),
+        case.start.pitch.to_degrees(),
+        case.start.roll.to_degrees(),
         case.plan.len(),
         case.keyframes.len(),
         case.points()
@@ -926,15 +928,23 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
         })?;
         let (start, plan, err) = tv::in_world(&case, &truth)?;
         let world = speleo_hal::world::World::build(name, a.seed)?;
-        let ground = tv::crop(&world.mesh, start, &plan, params.margin_m);
+        let ground = tv::crop(&world.mesh, start.position, &plan, params.margin_m);
         let mut wt = a.world_track.as_deref().map(create).transpose()?;
         let t = tv::drive_on(ground, start, &plan, params, wt.as_mut().map(as_writer))?;
         if let Some(w) = wt.as_mut() {
             std::io::Write::flush(w)?;
         }
         println!(
-            "SLAM's error then: ({:.2}, {:.2}, {:.2}) m, {:.1} deg; in the world from ({:.2}, {:.2}, {:.2})",
-            err[0], err[1], err[2], err[3], start[0], start[1], start[2]
+            "SLAM's error then: ({:.2}, {:.2}, {:.2}) m, {:.1} deg; in the world from ({:.2}, {:.2}, {:.2}), pitch {:.1} deg, roll {:.1} deg",
+            err[0],
+            err[1],
+            err[2],
+            err[3],
+            start.position[0],
+            start.position[1],
+            start.position[2],
+            start.pitch.to_degrees(),
+            start.roll.to_degrees()
         );
         show_drive("true world", &t);
     }

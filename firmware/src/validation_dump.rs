@@ -10,7 +10,7 @@
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
-use speleo_simulator::{ValidationCase, Verdict};
+use speleo_simulator::{Stance, ValidationCase, Verdict};
 
 pub struct ValidationDump {
     dir: PathBuf,
@@ -33,7 +33,7 @@ impl ValidationDump {
         })
     }
 
-    pub fn begin(&self, now: u64, start: [f64; 4], plan: impl IntoIterator<Item = [f64; 4]>) {
+    pub fn begin(&self, now: u64, start: Stance, plan: impl IntoIterator<Item = [f64; 4]>) {
         self.case.borrow_mut().begin(now, start, plan);
     }
 

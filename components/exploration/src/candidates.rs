@@ -61,6 +61,26 @@ impl Default for CandidateParams {
     }
 }
 
+/// Why the scanned nodes were not candidates, and how far the graph
+/// reached: the log of a scan that found nothing (at the lava tube's far
+/// end the graph ended two metres ahead of the rover, and why was not
+/// known).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ScanCensus {
+    pub scanned: u32,
+    /// Neither a frontier nor an explorable patch, nor at the border.
+    pub inner: u32,
+    /// Within `border_margin_m` of the window's edge.
+    pub beyond_margin: u32,
+    pub too_near: u32,
+    pub covered: u32,
+    pub rejected: u32,
+    pub cramped: u32,
+    /// The scanned node farthest from the rover, and its distance, m.
+    pub farthest: [f64; 3],
+    pub farthest_m: f64,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Candidate {
     pub node: u32,
@@ -82,6 +102,7 @@ pub struct CandidateScan {
     /// The second pass, with `tight_clearance_m`.
     tight: bool,
     best: heapless::Vec<Candidate, MAX_CANDIDATES>,
+    census: ScanCensus,
 }
 
 impl CandidateScan {
@@ -94,6 +115,7 @@ impl CandidateScan {
             window: None,
             tight: false,
             best: heapless::Vec::new(),
+            census: ScanCensus::default(),
         }
     }
 
@@ -109,6 +131,7 @@ impl CandidateScan {
         self.window = window;
         self.tight = false;
         self.best.clear();
+        self.census = ScanCensus::default();
     }
 
     /// Scan again with the tight clearance (after a pass that found
@@ -120,6 +143,7 @@ impl CandidateScan {
         self.tight = true;
         self.next = 0;
         self.best.clear();
+        self.census = ScanCensus::default();
         true
     }
 
@@ -138,18 +162,25 @@ impl CandidateScan {
     ) -> bool {
         let all = trav.nodes();
         let to = self.next.saturating_add(nodes.max(1)).min(all.len());
+        let mut census = self.census;
         for i in self.next..to {
-            if let Some(c) = self.score(trav, coverage, rejected, i as u32) {
+            if let Some(c) = self.score(trav, coverage, rejected, i as u32, &mut census) {
                 self.keep(c);
             }
         }
         self.next = to;
+        self.census = census;
         to == all.len()
     }
 
     /// Best first.
     pub fn best(&self) -> &[Candidate] {
         &self.best
+    }
+
+    /// Why this pass's nodes were not candidates.
+    pub fn census(&self) -> &ScanCensus {
+        &self.census
     }
 
     /// Keep `c` among the best unless a better one lies within the
@@ -186,9 +217,17 @@ impl CandidateScan {
         coverage: &CoverageMap,
         rejected: &[[f64; 2]],
         i: u32,
+        census: &mut ScanCensus,
     ) -> Option<Candidate> {
         let n = trav.node(i)?;
         let res = trav.resolution();
+        census.scanned += 1;
+        let p = trav.position(n);
+        let d = (p[0] - self.rover[0]).hypot(p[1] - self.rover[1]);
+        if d > census.farthest_m {
+            census.farthest_m = d;
+            census.farthest = p;
+        }
         // Within the margin of the window's border the graph stops but the
         // map goes on: no frontier there is real. Just inside the margin,
         // any drivable patch is a candidate: the map beyond the window is
@@ -199,6 +238,7 @@ impl CandidateScan {
                 let m = (self.p.border_margin_m / res).ceil() as i32;
                 let inside = |lo: i32, v: i32, hi: i32| v - lo >= m && hi - v >= m;
                 if !inside(w.min.0, n.ix, w.max.0) || !inside(w.min.1, n.iy, w.max.1) {
+                    census.beyond_margin += 1;
                     return None;
                 }
                 let edge =
@@ -208,17 +248,21 @@ impl CandidateScan {
             None => false,
         };
         let border_class = matches!(n.class, TravClass::Frontier | TravClass::Explorable);
-        let p = trav.position(n);
         // Ground the graph reaches on another level than the rover drove
         // there: the upper part of a ramp driven under, whose far end the
         // rings saw from below only as scattered stripes that close the
         // graph without a frontier. Going up is the only way to see on.
         let other_level = n.class.is_drivable() && coverage.level_apart(p[0], p[1], p[2]);
         if !(border_class || other_level || (at_border && n.class.is_drivable())) {
+            census.inner += 1;
             return None;
         }
-        let d = (p[0] - self.rover[0]).hypot(p[1] - self.rover[1]);
-        if d < self.p.min_distance_m || coverage.covered(p[0], p[1], p[2]) {
+        if d < self.p.min_distance_m {
+            census.too_near += 1;
+            return None;
+        }
+        if coverage.covered(p[0], p[1], p[2]) {
+            census.covered += 1;
             return None;
         }
         let r2 = self.p.rejected_radius_m.powi(2);
@@ -226,6 +270,7 @@ impl CandidateScan {
             .iter()
             .any(|q| (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) <= r2)
         {
+            census.rejected += 1;
             return None;
         }
         let clearance = if self.tight {
@@ -234,6 +279,7 @@ impl CandidateScan {
             self.p.clearance_m
         };
         if obstacle_near(trav, n.ix, n.iy, n.ground_z, clearance) {
+            census.cramped += 1;
             return None;
         }
         let unexplored_m2 = unexplored_near(trav, n.ix, n.iy, self.p.unexplored_radius_m);

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use speleo_hal::sim::lidar::LidarWorld;
 use speleo_hal::world::World;
-use speleo_simulator::{CloudSource, InternalSim, SimulatorParams};
+use speleo_simulator::{CloudSource, InternalSim, SimulatorParams, Stance};
 
 /// The HDL-32E's lasers: -30.67 to +10.67 deg; 0.4 deg between columns.
 const LASERS: usize = 32;
@@ -110,12 +110,12 @@ fn main() {
     if let Some(t) = std::env::var("TILE").ok().and_then(|v| v.parse().ok()) {
         p.tile_m = t;
     }
-    let start = [
+    let start = Stance::level(
         plan[0][0],
         plan[0][1],
         plan[0][2] + p.base_height_m,
         plan[0][3],
-    ];
+    );
     let mut sim = InternalSim::new(p.clone()).expect("simulator");
     let (mut clear, mut integrate, mut base) = (Vec::new(), Vec::new(), Vec::new());
     let (mut tiles, mut physics) = (Vec::new(), Vec::new());

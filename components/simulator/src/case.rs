@@ -5,7 +5,8 @@
 //! validate`, its world written as a mesh and its track as a table.
 //!
 //! The file is little-endian binary: the magic `SPLVCASE`, a version,
-//! the mission time it began, the start (x, y, z, yaw), the plan's poses (x, y, ground z, heading),
+//! the mission time it began, the start (x, y, z, yaw, pitch, roll; version
+//! 1 had no pitch and roll), the plan's poses (x, y, ground z, heading),
 //! the verdict the mission got (outcome code, driving time, goal error),
 //! then each keyframe: whether it had a pose, its sensor origin and the
 //! points read from it. Coordinates are the map frame's f64, so a replay
@@ -14,10 +15,12 @@
 use std::cell::RefCell;
 use std::io::{self, Read, Write};
 
-use crate::{CloudSource, Outcome, Verdict};
+use crate::{CloudSource, Outcome, Stance, Verdict};
 
 const MAGIC: &[u8; 8] = b"SPLVCASE";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
+/// Files of this version are still read (their start is level).
+const LEVEL_START_VERSION: u32 = 1;
 /// Bounds a corrupt file's counts before anything is allocated for them.
 const MAX_PLAN_POSES: u32 = 1 << 16;
 const MAX_KEYFRAMES: u32 = 1 << 16;
@@ -38,7 +41,7 @@ pub struct ValidationCase {
     /// then: a sample of the true track at that time places it in a
     /// simulated world).
     pub began_ns: u64,
-    pub start: [f64; 4],
+    pub start: Stance,
     pub plan: Vec<[f64; 4]>,
     pub verdict: Option<Verdict>,
     pub keyframes: Vec<RecordedKeyframe>,
@@ -114,7 +117,7 @@ impl ValidationCase {
     pub fn begin(
         &mut self,
         began_ns: u64,
-        start: [f64; 4],
+        start: Stance,
         plan: impl IntoIterator<Item = [f64; 4]>,
     ) {
         self.began_ns = began_ns;
@@ -134,7 +137,8 @@ impl ValidationCase {
         w.write_all(MAGIC)?;
         w.write_all(&VERSION.to_le_bytes())?;
         w.write_all(&self.began_ns.to_le_bytes())?;
-        write_f64s(w, &self.start)?;
+        write_f64s(w, &self.start.xyz_yaw())?;
+        write_f64s(w, &[self.start.pitch, self.start.roll])?;
         w.write_all(&(self.plan.len() as u32).to_le_bytes())?;
         for q in &self.plan {
             write_f64s(w, q)?;
@@ -167,13 +171,17 @@ impl ValidationCase {
             return Err(CaseError::NotACase);
         }
         let version = read_u32(r)?;
-        if version != VERSION {
+        if version != VERSION && version != LEVEL_START_VERSION {
             return Err(CaseError::Version(version));
         }
         let mut t = [0u8; 8];
         r.read_exact(&mut t)?;
         let began_ns = u64::from_le_bytes(t);
-        let start = read_f64s::<4>(r)?;
+        let [x, y, z, yaw] = read_f64s::<4>(r)?;
+        let mut start = Stance::level(x, y, z, yaw);
+        if version >= 2 {
+            [start.pitch, start.roll] = read_f64s::<2>(r)?;
+        }
         let n = read_count(r, "plan poses", MAX_PLAN_POSES)?;
         let plan = (0..n)
             .map(|_| read_f64s::<4>(r))

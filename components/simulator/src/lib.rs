@@ -21,6 +21,7 @@ mod prediction;
 mod prefix;
 mod ribbon;
 mod run;
+mod stance;
 mod terrain;
 
 pub use case::{CaseError, RecordedKeyframe, RecordingClouds, ValidationCase};
@@ -28,3 +29,4 @@ pub use params::SimulatorParams;
 pub use prediction::{rmse_at_equal_times, Prediction, PREDICTION_POINTS};
 pub use prefix::{driven_prefix, Prefix, PrefixRule};
 pub use run::{CloudSource, InternalSim, Outcome, SimCounters, Verdict};
+pub use stance::Stance;

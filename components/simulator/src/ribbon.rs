@@ -30,6 +30,29 @@ const MAX_MITER: f64 = 2.0;
 /// The pad's vertices per side.
 const PAD_SIDE: usize = 9;
 
+/// The plane the rover stands on, over the square it stands in: where
+/// the scans never see the ground, the rover's own attitude says how it
+/// lies. Put down level there, a rover tilted on a side slope stood on a
+/// shelf cut into it, far less tilted than it was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footing {
+    /// x, y and the ground's z under base_link.
+    pub at: [f64; 3],
+    /// Rise per metre along x and y.
+    pub slope: [f64; 2],
+    /// Half the square's side, m.
+    pub half: f64,
+}
+
+impl Footing {
+    /// The plane's height at `x, y`, inside the square.
+    fn z(&self, x: f64, y: f64) -> Option<f64> {
+        let (dx, dy) = (x - self.at[0], y - self.at[1]);
+        (dx.abs() <= self.half && dy.abs() <= self.half)
+            .then(|| self.at[2] + self.slope[0] * dx + self.slope[1] * dy)
+    }
+}
+
 /// A sample of the strip's centre line: where, the ground the planner
 /// found there, and the direction across (unit, scaled by the miter).
 struct Sample {
@@ -39,31 +62,41 @@ struct Sample {
 }
 
 /// The strip along `path` (x, y, ground z per point, the rover's start
-/// first), `half_width` each side of it and `beyond` past both ends.
-pub fn strip(terrain: &Terrain, path: &[[f64; 3]], half_width: f64, beyond: f64) -> Mesh {
+/// first), `half_width` each side of it and `beyond` past both ends;
+/// within `footing`, its plane stands for the planner's ground.
+pub fn strip(
+    terrain: &Terrain,
+    path: &[[f64; 3]],
+    half_width: f64,
+    beyond: f64,
+    footing: Option<&Footing>,
+) -> Mesh {
     let mut mesh = Mesh::default();
     let samples = centre_line(path, beyond);
     for s in &samples {
         for k in 0..ACROSS {
             let u = half_width * (2.0 * k as f64 / (ACROSS - 1) as f64 - 1.0);
             let (x, y) = (s.at[0] + u * s.across[0], s.at[1] + u * s.across[1]);
-            mesh.vertices.push(vertex(terrain, x, y, s.z));
+            let z = footing.and_then(|f| f.z(x, y)).unwrap_or(s.z);
+            mesh.vertices.push(vertex(terrain, x, y, z));
         }
     }
     triangulate_grid(&mut mesh, samples.len(), ACROSS);
     mesh
 }
 
-/// A square pad of side `2 * half` around `at` (x, y, ground z): the
-/// ground under the rover, which its lowest beam never sees.
-pub fn pad(terrain: &Terrain, at: [f64; 3], half: f64) -> Mesh {
+/// A pad over the footing's square: the ground under the rover, which
+/// its lowest beam never sees.
+pub fn pad(terrain: &Terrain, footing: &Footing) -> Mesh {
     let mut mesh = Mesh::default();
     let n = PAD_SIDE;
+    let [x0, y0, z0] = footing.at;
     for i in 0..n {
         for j in 0..n {
-            let f = |k: usize| half * (2.0 * k as f64 / (n - 1) as f64 - 1.0);
-            mesh.vertices
-                .push(vertex(terrain, at[0] + f(i), at[1] + f(j), at[2]));
+            let f = |k: usize| footing.half * (2.0 * k as f64 / (n - 1) as f64 - 1.0);
+            let (dx, dy) = (f(i), f(j));
+            let z = z0 + footing.slope[0] * dx + footing.slope[1] * dy;
+            mesh.vertices.push(vertex(terrain, x0 + dx, y0 + dy, z));
         }
     }
     triangulate_grid(&mut mesh, n, n);
@@ -94,16 +127,21 @@ const FLOOR_MIN_SAMPLES: usize = 8;
 /// round the rover and the simulated rover, turning round on the spot at
 /// the start of a retrace, caught its legs on the rim: stuck, again and
 /// again, where the real rover turned freely.
-pub fn floor_around(terrain: &Terrain, at: [f64; 3]) -> Option<f64> {
+pub fn floor_around(terrain: &Terrain, at: [f64; 3], slope: [f64; 2]) -> Option<f64> {
     let mut seen = [0.0f64; FLOOR_SAMPLES];
     let mut n = 0;
     for r in FLOOR_RINGS_M {
         for k in 0..FLOOR_RING_SAMPLES {
             let a = std::f64::consts::TAU * k as f64 / FLOOR_RING_SAMPLES as f64;
-            let (x, y) = (at[0] + r * a.cos(), at[1] + r * a.sin());
-            if let Some(z) = terrain.surface_z(x, y, at[2] + FLOOR_SEARCH_M, at[2] - FLOOR_SEARCH_M)
+            let (dx, dy) = (r * a.cos(), r * a.sin());
+            // The plane's rise there, taken off: what is left is the
+            // plane's height at the centre.
+            let rise = slope[0] * dx + slope[1] * dy;
+            let guess = at[2] + rise;
+            let (x, y) = (at[0] + dx, at[1] + dy);
+            if let Some(z) = terrain.surface_z(x, y, guess + FLOOR_SEARCH_M, guess - FLOOR_SEARCH_M)
             {
-                seen[n] = z;
+                seen[n] = z - rise;
                 n += 1;
             }
         }
@@ -265,6 +303,15 @@ mod tests {
         assert_eq!(d, [-0.0, 1.0]);
     }
 
+    /// A level footing a metre each side of `at`.
+    fn level(at: [f64; 3]) -> Footing {
+        Footing {
+            at,
+            slope: [0.0; 2],
+            half: 1.0,
+        }
+    }
+
     /// Scans of the ground `z(x, y)` from a sensor 1 m over it at the
     /// origin and at x = 3, every 5 cm over 8 m by 4 m.
     fn terrain(z: impl Fn(f64, f64) -> f64) -> Terrain {
@@ -297,7 +344,7 @@ mod tests {
         let z = |x: f64, y: f64| 0.2 * x + 0.1 * y;
         let t = terrain(z);
         let path: Vec<[f64; 3]> = (0..5).map(|i| [i as f64, 0.0, z(i as f64, 0.0)]).collect();
-        let m = strip(&t, &path, 0.75, 0.75);
+        let m = strip(&t, &path, 0.75, 0.75, None);
         let mut seen = 0;
         for v in &m.vertices {
             let (x, y) = (v[0] as f64, v[1] as f64);
@@ -311,7 +358,7 @@ mod tests {
         }
         assert!(seen > 50, "{seen}");
         // Where the scans have nothing (past x = 6), the planner's ground.
-        let far = strip(&t, &[[7.0, 0.0, 1.0], [8.0, 0.0, 1.2]], 0.5, 0.0);
+        let far = strip(&t, &[[7.0, 0.0, 1.0], [8.0, 0.0, 1.2]], 0.5, 0.0, None);
         for v in &far.vertices {
             let expect = 1.0 + 0.2 * (v[0] as f64 - 7.0) - DROP_M;
             assert!((v[2] as f64 - expect).abs() < 1e-5, "{v:?}");
@@ -322,7 +369,7 @@ mod tests {
     fn the_pad_follows_the_seen_ground_around_the_rover() {
         let z = |x: f64, _: f64| 0.2 * x;
         let t = terrain(z);
-        let m = pad(&t, [1.0, 0.0, 0.2], 1.0);
+        let m = pad(&t, &level([1.0, 0.0, 0.2]));
         assert_eq!(m.vertices.len(), PAD_SIDE * PAD_SIDE);
         for v in &m.vertices {
             let under = z(v[0] as f64, 0.0) - v[2] as f64;
@@ -336,30 +383,52 @@ mod tests {
         // sank), and a slope: the median of the rings is the height at the
         // centre.
         let flat = terrain(|_, _| 0.11);
-        let f = floor_around(&flat, [1.5, 0.0, 0.0]).expect("seen floor");
+        let f = floor_around(&flat, [1.5, 0.0, 0.0], [0.0; 2]).expect("seen floor");
         assert!((f - 0.11).abs() < 0.03, "{f}");
         let slope = terrain(|x, _| 0.1 * x);
-        let f = floor_around(&slope, [1.5, 0.0, 0.12]).expect("seen floor");
+        let f = floor_around(&slope, [1.5, 0.0, 0.12], [0.0; 2]).expect("seen floor");
         assert!((f - 0.15).abs() < 0.03, "{f}");
         // Nothing within the search window: no answer.
-        assert!(floor_around(&flat, [1.5, 0.0, 0.6]).is_none());
+        assert!(floor_around(&flat, [1.5, 0.0, 0.6], [0.0; 2]).is_none());
     }
 
     #[test]
     fn the_pad_laid_at_the_seen_floor_has_no_pit() {
         // Nothing seen within 0.6 m of the rover, as from its own mast.
         let t = terrain_seen(|_, _| 0.11, |x, y| (x - 1.5).hypot(y) > 0.6);
-        let low = pad(&t, [1.5, 0.0, 0.0], 1.0);
-        let level = pad(
-            &t,
-            [1.5, 0.0, floor_around(&t, [1.5, 0.0, 0.0]).expect("floor")],
-            1.0,
-        );
+        let low = pad(&t, &level([1.5, 0.0, 0.0]));
+        let f = floor_around(&t, [1.5, 0.0, 0.0], [0.0; 2]).expect("floor");
+        let level = pad(&t, &level([1.5, 0.0, f]));
         let lowest = |m: &Mesh| m.vertices.iter().map(|v| v[2]).fold(f32::MAX, f32::min);
         let highest = |m: &Mesh| m.vertices.iter().map(|v| v[2]).fold(f32::MIN, f32::max);
         // At the estimate the unseen middle lies lower than the seen rim...
         assert!(highest(&low) - lowest(&low) > 0.05);
         // ...at the seen floor it does not.
         assert!(highest(&level) - lowest(&level) < 0.03);
+    }
+
+    #[test]
+    fn under_a_tilted_rover_the_floor_and_the_pad_follow_its_tilt() {
+        // A 27° side slope, nothing seen within 0.6 m of the rover: laid
+        // level, the hole under it would be a flat shelf cut into the
+        // slope, and the simulated rover would stand level on it.
+        let z = |_: f64, y: f64| 0.5 * y;
+        let t = terrain_seen(z, |x, y| (x - 1.5).hypot(y) > 0.6);
+        let slope = [0.0, 0.5];
+        let f = floor_around(&t, [1.5, 0.0, 0.05], slope).expect("seen floor");
+        assert!(f.abs() < 0.03, "{f}");
+        let footing = Footing {
+            at: [1.5, 0.0, f],
+            slope,
+            half: 1.0,
+        };
+        let m = pad(&t, &footing);
+        for v in &m.vertices {
+            let under = z(v[0] as f64, v[1] as f64) - v[2] as f64;
+            assert!(
+                under > -0.03 && under < 0.1,
+                "{v:?}: {under} under the slope"
+            );
+        }
     }
 }

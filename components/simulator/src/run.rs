@@ -8,7 +8,7 @@ use speleo_hal::world::Mesh;
 use crate::prediction::Prediction;
 use crate::ribbon;
 use crate::terrain::Terrain;
-use crate::SimulatorParams;
+use crate::{SimulatorParams, Stance};
 
 /// The keyframe clouds the world is made of: the map the rover built.
 pub trait CloudSource {
@@ -143,8 +143,8 @@ pub struct InternalSim {
     follower: PlanFollower,
     limiter: AccelLimiter,
     plan: heapless::Vec<[f64; 4], MAX_WAYPOINTS>,
-    /// base_link at the start: x, y, z, yaw.
-    start: [f64; 4],
+    /// base_link at the start.
+    start: Stance,
     phase: Phase,
     step: u64,
     targets: [f64; 4],
@@ -177,7 +177,7 @@ impl InternalSim {
             follower: PlanFollower::new(p.follower.clone()),
             limiter: AccelLimiter::new(p.limits),
             plan: heapless::Vec::new(),
-            start: [0.0; 4],
+            start: Stance::default(),
             phase: Phase::Idle,
             step: 0,
             targets: [0.0; 4],
@@ -200,9 +200,9 @@ impl InternalSim {
         &self.p
     }
 
-    /// Validate `plan` (x, y, ground z, heading) for the rover whose
-    /// base_link is at `start` (x, y, z, yaw), all in the map frame.
-    pub fn begin(&mut self, start: [f64; 4], plan: impl IntoIterator<Item = [f64; 4]>) {
+    /// Validate `plan` (x, y, ground z, heading) for the rover standing
+    /// at `start`, all in the map frame.
+    pub fn begin(&mut self, start: Stance, plan: impl IntoIterator<Item = [f64; 4]>) {
         self.plan.clear();
         for q in plan {
             if self.plan.push(q).is_err() {
@@ -210,7 +210,7 @@ impl InternalSim {
             }
         }
         self.start = start;
-        let mut lo = [start[0], start[1], start[2]];
+        let mut lo = start.position;
         let mut hi = lo;
         for q in &self.plan {
             for k in 0..3 {
@@ -251,7 +251,7 @@ impl InternalSim {
     /// from the mission (`speleo validate --world`). Allocates.
     pub fn begin_on(
         &mut self,
-        start: [f64; 4],
+        start: Stance,
         plan: impl IntoIterator<Item = [f64; 4]>,
         ground: Mesh,
     ) {
@@ -464,13 +464,15 @@ impl InternalSim {
     /// Put the rover down with the ground the scans miss; the vertices
     /// laid on the seen ground (the cost of this step).
     fn begin_ground(&mut self) -> usize {
-        let [x, y, z, yaw] = self.start;
+        let [x, y, z, yaw] = self.start.xyz_yaw();
+        let tilt = [self.start.pitch, self.start.roll];
+        let (ph, dt) = (&self.p.physics, self.p.dt_s);
         // Dropped from a little higher than the estimate: legs started
         // inside a floor the TSDF puts a few centimetres higher than the
         // estimate would be thrown out of it.
         let ground = [x, y, z - self.p.base_height_m + DROP_M, yaw];
         if let Some(mesh) = self.given_ground.take() {
-            match PhysicsRover::new(&self.p.physics, &mesh, ground, self.p.dt_s) {
+            match PhysicsRover::new_tilted(ph, &mesh, ground, tilt, dt) {
                 Ok(r) => {
                     self.rover = Some(Box::new(r));
                     self.phase = Phase::Drive;
@@ -481,19 +483,26 @@ impl InternalSim {
         }
         // On the floor the map has round the rover, where it saw one: the
         // estimate may sit under it or over it (see `ribbon::floor_around`).
+        // Both follow the plane the rover stands on, tilted as it is.
+        let slope = self.start.ground_gradient();
         let estimate = z - self.p.base_height_m;
-        let floor = ribbon::floor_around(&self.terrain, [x, y, estimate]).unwrap_or(estimate);
+        let floor =
+            ribbon::floor_around(&self.terrain, [x, y, estimate], slope).unwrap_or(estimate);
         let ground = [x, y, floor + DROP_M, yaw];
-        match PhysicsRover::new(&self.p.physics, &Mesh::default(), ground, self.p.dt_s) {
+        match PhysicsRover::new_tilted(ph, &Mesh::default(), ground, tilt, dt) {
             Ok(mut r) => {
                 // The LiDAR cannot see the ground under and around the
                 // rover (its lowest beam meets the ground about a metre
                 // away), but the rover stands there: a pad fills that
                 // hole, and a strip along the plan the holes the rings
                 // leave and the ground past a frontier goal.
-                let under = [x, y, ground[2] - DROP_M];
-                let pad = ribbon::pad(&self.terrain, under, FOOTPRINT_PAD_M);
-                let strip = self.ribbon(under);
+                let footing = ribbon::Footing {
+                    at: [x, y, ground[2] - DROP_M],
+                    slope,
+                    half: FOOTPRINT_PAD_M,
+                };
+                let pad = ribbon::pad(&self.terrain, &footing);
+                let strip = self.ribbon(&footing);
                 let _ = r.add_ground(&pad);
                 let _ = r.add_ground(&strip);
                 self.rover = Some(Box::new(r));
@@ -511,14 +520,14 @@ impl InternalSim {
     /// the scans have a hole. As wide as the wheels plus the follower's
     /// straying, and a body's half length past both ends of the plan
     /// (the rover's front is past a frontier goal's seen ground).
-    fn ribbon(&self, start_ground: [f64; 3]) -> Mesh {
+    fn ribbon(&self, footing: &ribbon::Footing) -> Mesh {
         let ph = &self.p.physics;
         let half_w = 0.5 * ph.track_width_m + ph.wheel_radius_m + RIBBON_MARGIN_M;
         let beyond = 0.5 * ph.wheelbase_m + ph.wheel_radius_m + RIBBON_MARGIN_M;
         let mut path = Vec::with_capacity(self.plan.len() + 1);
-        path.push(start_ground);
+        path.push(footing.at);
         path.extend(self.plan.iter().map(|q| [q[0], q[1], q[2]]));
-        ribbon::strip(&self.terrain, &path, half_w, beyond)
+        ribbon::strip(&self.terrain, &path, half_w, beyond, Some(footing))
     }
 
     /// Whether tile `i` lies within the margin of the plan (or the start).
@@ -526,7 +535,7 @@ impl InternalSim {
         let (lo, hi) = self.terrain.tile_bounds(i);
         let c = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])];
         let reach = self.p.margin_m + 0.5 * (hi[0] - lo[0]).hypot(hi[1] - lo[1]);
-        let start = [self.start[0], self.start[1]];
+        let start = [self.start.position[0], self.start.position[1]];
         let mut prev = start;
         let mut near = (c[0] - start[0]).hypot(c[1] - start[1]) <= reach;
         for q in &self.plan {

@@ -4,7 +4,8 @@
 use std::cell::RefCell;
 
 use speleo_simulator::{
-    CaseError, CloudSource, InternalSim, Outcome, RecordingClouds, SimulatorParams, ValidationCase,
+    CaseError, CloudSource, InternalSim, Outcome, RecordingClouds, SimulatorParams, Stance,
+    ValidationCase,
 };
 
 /// Ground at 0 with a 0.45 m ledge at x = 2 (refused) seen from sensors
@@ -65,8 +66,13 @@ fn plan() -> Vec<[f64; 4]> {
         .collect()
 }
 
-fn start() -> [f64; 4] {
-    [0.0, 0.0, SimulatorParams::default().base_height_m, 0.0]
+/// Standing a little pitched and rolled: the attitude is part of a case.
+fn start() -> Stance {
+    Stance {
+        pitch: 0.01,
+        roll: -0.02,
+        ..Stance::level(0.0, 0.0, SimulatorParams::default().base_height_m, 0.0)
+    }
 }
 
 /// A validation's outcome, predicted track and driving time.
@@ -156,12 +162,25 @@ fn a_damaged_case_is_refused_with_its_reason() {
     assert!(matches!(v, CaseError::Version(9)), "{v}");
     // The plan's pose count, just after the magic, version, time and start.
     let mut huge = bytes.clone();
-    huge[52..56].copy_from_slice(&u32::MAX.to_le_bytes());
+    huge[68..72].copy_from_slice(&u32::MAX.to_le_bytes());
     let h = ValidationCase::read(&mut huge.as_slice()).expect_err("refused");
     assert!(matches!(h, CaseError::Count { .. }), "{h}");
     let mut outcome = bytes;
-    let at = 56 + plan().len() * 32;
+    let at = 72 + plan().len() * 32;
     outcome[at] = 77;
     let o = ValidationCase::read(&mut outcome.as_slice()).expect_err("refused");
     assert!(matches!(o, CaseError::Outcome(77)), "{o}");
+}
+
+#[test]
+fn a_case_of_the_first_version_is_read_with_a_level_start() {
+    // Version 1 had no pitch and roll after x, y, z, yaw.
+    let (_, bytes) = recorded();
+    let mut old = bytes[..52].to_vec();
+    old[8..12].copy_from_slice(&1u32.to_le_bytes());
+    old.extend_from_slice(&bytes[68..]);
+    let case = ValidationCase::read(&mut old.as_slice()).expect("a version 1 case");
+    let s = start();
+    assert_eq!(case.start, Stance::level(0.0, 0.0, s.position[2], s.yaw));
+    assert_eq!(case.plan, plan());
 }

@@ -2,7 +2,7 @@
 //! goal, a ledge the rover cannot climb is refused, and the same inputs
 //! give the same verdict and prediction.
 
-use speleo_simulator::{CloudSource, InternalSim, Outcome, SimulatorParams};
+use speleo_simulator::{CloudSource, InternalSim, Outcome, SimulatorParams, Stance};
 
 /// Scans taken from sensors 1 m over the ground along y = 0, of ground
 /// `z(x)` with a vertical face wherever it jumps.
@@ -107,7 +107,7 @@ fn run_on(
     units: usize,
 ) -> (Outcome, Vec<[f64; 3]>, f64) {
     let p = SimulatorParams::default();
-    sim.begin([0.0, 0.0, ground + p.base_height_m, 0.0], plan);
+    sim.begin(Stance::level(0.0, 0.0, ground + p.base_height_m, 0.0), plan);
     let mut steps = 0;
     let v = loop {
         if let Some(v) = sim.step(scans, units) {
@@ -142,7 +142,7 @@ fn steps_without_the_clouds_stop_where_they_are_needed_and_change_nothing() {
     let whole = run(&mut sim, bumpy, plan(bumpy), 14);
     let scans = Scans::new(bumpy);
     let p = SimulatorParams::default();
-    sim.begin([0.0, 0.0, p.base_height_m, 0.0], plan(bumpy));
+    sim.begin(Stance::level(0.0, 0.0, p.base_height_m, 0.0), plan(bumpy));
     let (mut with, mut without) = (0, 0);
     let v = loop {
         let v = if sim.needs_clouds() {
@@ -297,7 +297,7 @@ fn floor_with_ledge(ledge_x: f32, ledge_h: f32) -> speleo_hal::world::Mesh {
 #[test]
 fn on_given_ground_a_plan_is_driven_as_on_the_clouds() {
     let p = SimulatorParams::default();
-    let start = [0.0, 0.0, p.base_height_m, 0.0];
+    let start = Stance::level(0.0, 0.0, p.base_height_m, 0.0);
     let drive = |ground| {
         let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
         sim.begin_on(start, plan(|_| 0.0), ground);

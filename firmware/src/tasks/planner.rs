@@ -26,7 +26,7 @@ use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
 use speleo_exploration::{Mode, ReturnReason};
-use speleo_simulator::Outcome;
+use speleo_simulator::{Outcome, Stance};
 
 use crate::bus::{Bus, PlanMsg};
 use crate::config::PlannerConfig;
@@ -123,6 +123,9 @@ struct Query {
     began_ns: u64,
     rover: [f64; 3],
     yaw: f64,
+    /// The rover's attitude (w, x, y, z): the internal simulation starts
+    /// it as it stands.
+    attitude: [f64; 4],
     /// Points along the route, farthest first (with the route's heading
     /// there).
     goals: [([f64; 2], f64); GOAL_POINTS],
@@ -316,6 +319,7 @@ impl PlannerTask {
             began_ns: now,
             rover: pose.position,
             yaw: yaw_of(pose.orientation),
+            attitude: pose.orientation,
             ..Query::default()
         };
         if let Some(ex) = &self.explore {
@@ -568,12 +572,23 @@ impl PlannerTask {
         let best = ex.scan.best();
         if best.is_empty() {
             ex.counters.scans_empty += 1;
+            let c = ex.scan.census();
             tracing::debug!(
                 x = self.query.rover[0],
                 y = self.query.rover[1],
                 nodes = self.lat.trav().nodes().len(),
+                inner = c.inner,
+                beyond_margin = c.beyond_margin,
+                too_near = c.too_near,
+                covered = c.covered,
+                rejected = c.rejected,
+                cramped = c.cramped,
+                farthest_m = c.farthest_m,
+                farthest_x = c.farthest[0],
+                farthest_y = c.farthest[1],
                 "no candidate"
             );
+            trace_graph_near(self.lat.trav(), self.query.rover, GRAPH_TRACE_RADIUS_M);
             ex.no_start();
             self.counters.no_goal += 1;
             self.end_query();
@@ -812,6 +827,7 @@ impl PlannerTask {
             began_ns: now,
             rover: pose.position,
             yaw: yaw_of(pose.orientation),
+            attitude: pose.orientation,
             retrace: true,
             ..Query::default()
         };
@@ -828,15 +844,15 @@ impl PlannerTask {
         let (Some(sim), Some(plan)) = (ex.sim_home(), bus.plan.get()) else {
             return false;
         };
-        let [x, y, z] = self.query.rover;
+        let start = Stance::from_quat(self.query.rover, self.query.attitude);
         let poses = plan
             .value
             .poses
             .iter()
             .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64, p[3] as f64]);
-        sim.begin([x, y, z, self.query.yaw], poses.clone());
+        sim.begin(start, poses.clone());
         if let Some(d) = &ex.dump {
-            d.begin(now, [x, y, z, self.query.yaw], poses);
+            d.begin(now, start, poses);
         }
         ex.validation_began_ns = now;
         // The old world's teardown needs no clouds: on the worker already.
@@ -1135,6 +1151,36 @@ fn point_ahead(
         }
         left -= len;
         i += 1;
+    }
+}
+
+/// The graph's nodes this near the rover are traced where no candidate
+/// was found, m.
+const GRAPH_TRACE_RADIUS_M: f64 = 8.0;
+
+/// Every node within `radius_m` of `rover` as a trace line (target
+/// `speleo::graph`): where the graph ends and why, to look at after a
+/// mission (`RUST_LOG=debug,speleo::graph=trace`). Nothing is done
+/// unless that target traces.
+fn trace_graph_near(trav: &speleo_traversability::TravMap, rover: [f64; 3], radius_m: f64) {
+    if !tracing::enabled!(target: "speleo::graph", tracing::Level::TRACE) {
+        return;
+    }
+    for n in trav.nodes() {
+        let [x, y, z] = trav.position(n);
+        if (x - rover[0]).hypot(y - rover[1]) > radius_m {
+            continue;
+        }
+        tracing::trace!(
+            target: "speleo::graph",
+            x,
+            y,
+            z,
+            patch_z = n.patch_z,
+            slope_deg = n.slope_deg,
+            class = ?n.class,
+            "node"
+        );
     }
 }
 

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use speleo_hal::sim::{quat, BodyState};
 use speleo_hal::world::Mesh;
-use speleo_simulator::{InternalSim, SimulatorParams, ValidationCase, Verdict};
+use speleo_simulator::{InternalSim, SimulatorParams, Stance, ValidationCase, Verdict};
 
 use super::Error;
 
@@ -68,7 +68,7 @@ pub fn replay(
 /// Drive `plan` from `start` on `ground` as it is.
 pub fn drive_on(
     ground: Mesh,
-    start: [f64; 4],
+    start: Stance,
     plan: &[[f64; 4]],
     params: SimulatorParams,
     track: Option<&mut dyn Write>,
@@ -137,9 +137,9 @@ fn drive(
     })
 }
 
-/// A case in the world: the start (x, y, z, yaw), the plan, and SLAM's
-/// error when it began (see [`in_world`]).
-pub type InWorld = ([f64; 4], Vec<[f64; 4]>, [f64; 4]);
+/// A case in the world: the start (where and how the rover truly stood),
+/// the plan, and SLAM's error when it began (see [`in_world`]).
+pub type InWorld = (Stance, Vec<[f64; 4]>, [f64; 4]);
 
 /// The case carried into the world by where the rover truly stood when
 /// it began: its start and plan in the world frame, and SLAM's error then
@@ -149,10 +149,16 @@ pub type InWorld = ([f64; 4], Vec<[f64; 4]>, [f64; 4]);
 pub fn in_world(case: &ValidationCase, truth: &str) -> Result<InWorld, Error> {
     // x, y, z, yaw of a row.
     let pose = |f: &[f64]| [f[1], f[2], f[3], quat::to_ypr(&[f[4], f[5], f[6], f[7]]).0];
+    // The row's attitude (the world and the map frame differ by a yaw:
+    // pitch and roll are the same in both).
+    let tilt = |f: &[f64]| {
+        let (_, pitch, roll) = quat::to_ypr(&[f[4], f[5], f[6], f[7]]);
+        [pitch, roll]
+    };
     // The first row is the first frame's: the map frame's origin.
     let mut origin: Option<[f64; 4]> = None;
     // The row nearest the case's time: how near, the pose.
-    let mut best: Option<(u64, [f64; 4])> = None;
+    let mut best: Option<(u64, [f64; 4], [f64; 2])> = None;
     for (i, line) in truth.lines().enumerate().skip(1) {
         let f: Vec<f64> = line
             .split(',')
@@ -165,11 +171,11 @@ pub fn in_world(case: &ValidationCase, truth: &str) -> Result<InWorld, Error> {
         let p = pose(&f);
         origin.get_or_insert(p);
         let gap = (f[0] as u64).abs_diff(case.began_ns);
-        if best.is_none_or(|(g, _)| gap < g) {
-            best = Some((gap, p));
+        if best.is_none_or(|(g, _, _)| gap < g) {
+            best = Some((gap, p, tilt(&f)));
         }
     }
-    let (Some(o), Some((gap, t))) = (origin, best) else {
+    let (Some(o), Some((gap, t, [pitch, roll]))) = (origin, best) else {
         return Err("the true track is empty".into());
     };
     if gap > 1_000_000_000 {
@@ -180,7 +186,7 @@ pub fn in_world(case: &ValidationCase, truth: &str) -> Result<InWorld, Error> {
         .into());
     }
     let [tx, ty, tz, true_yaw] = t;
-    let [ex, ey, ez, eyaw] = case.start;
+    let [ex, ey, ez, eyaw] = case.start.xyz_yaw();
     let turn = true_yaw - eyaw;
     let (s, c) = turn.sin_cos();
     let to_world = |q: &[f64; 4]| {
@@ -206,13 +212,18 @@ pub fn in_world(case: &ValidationCase, truth: &str) -> Result<InWorld, Error> {
         ez - in_map[2],
         wrap(eyaw - (true_yaw - o[3])).to_degrees(),
     ];
-    Ok(([tx, ty, tz, true_yaw], plan, error))
+    let start = Stance {
+        pitch,
+        roll,
+        ..Stance::level(tx, ty, tz, true_yaw)
+    };
+    Ok((start, plan, error))
 }
 
 /// The triangles of `mesh` near the plan: within `margin` of its box in
 /// x and y, from a metre and a half under it to two metres over it.
-pub fn crop(mesh: &Mesh, start: [f64; 4], plan: &[[f64; 4]], margin: f64) -> Mesh {
-    let mut lo = [start[0], start[1], start[2]];
+pub fn crop(mesh: &Mesh, start: [f64; 3], plan: &[[f64; 4]], margin: f64) -> Mesh {
+    let mut lo = start;
     let mut hi = lo;
     for q in plan {
         for k in 0..3 {
@@ -262,17 +273,19 @@ mod tests {
     fn a_case_is_carried_into_the_world_by_the_true_pose_when_it_began() {
         let case = ValidationCase {
             began_ns: 2_000_000_000,
-            start: [1.0, 2.0, 0.1, 0.0],
+            start: Stance::level(1.0, 2.0, 0.1, 0.0),
             plan: vec![[1.0, 2.0, 0.0, 0.0], [3.0, 2.0, 0.2, 0.0]],
             ..ValidationCase::default()
         };
-        // Truly at (11, 12, 0.6) heading 90 degrees at 2 s (qw = qz).
-        let h = std::f64::consts::FRAC_1_SQRT_2;
+        // Truly at (11, 12, 0.6) heading 90 degrees at 2 s, pitched 0.1
+        // rad nose down and rolled 0.05 rad.
+        let [w, x, y, z] = quat::from_ypr(std::f64::consts::FRAC_PI_2, 0.1, 0.05);
         let truth = format!(
-            "t_ns,x_m,y_m,z_m,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n2000000000,11,12,0.6,{h},0,0,{h}\n"
+            "t_ns,x_m,y_m,z_m,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n2000000000,11,12,0.6,{w},{x},{y},{z}\n"
         );
         let (start, plan, err) = in_world(&case, &truth).expect("placed");
-        assert!((start[3] - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+        assert!((start.yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-9);
+        assert!((start.pitch - 0.1).abs() < 1e-9 && (start.roll - 0.05).abs() < 1e-9);
         let end = plan[1];
         // 2 m ahead along the map's x is 2 m along the world's y.
         for (got, want) in end
@@ -309,7 +322,7 @@ mod tests {
             triangles: vec![[0, 1, 2], [1, 3, 2], [3, 3, 3], [4, 5, 6]],
             surfaces: vec![Default::default(); 4],
         };
-        let c = crop(&m, [0.0; 4], &[[1.0, 1.0, 0.0, 0.0]], 1.0);
+        let c = crop(&m, [0.0; 3], &[[1.0, 1.0, 0.0, 0.0]], 1.0);
         assert_eq!(
             c.triangles.len(),
             3,

@@ -181,6 +181,18 @@ impl PhysicsRover {
     /// The rover standing on `mesh` at `start` (x, y, ground z, yaw), its
     /// legs just clear of the ground. `dt_s` is the physics step.
     pub fn new(p: &PhysicsParams, mesh: &Mesh, start: [f64; 4], dt_s: f64) -> Result<Self, String> {
+        Self::new_tilted(p, mesh, start, [0.0; 2], dt_s)
+    }
+
+    /// As [`PhysicsRover::new`], the chassis pitched and rolled by `tilt`
+    /// (pitch, roll, rad): to start on a slope as the rover stands on it.
+    pub fn new_tilted(
+        p: &PhysicsParams,
+        mesh: &Mesh,
+        start: [f64; 4],
+        tilt: [f64; 2],
+        dt_s: f64,
+    ) -> Result<Self, String> {
         p.validate()?;
         let mut world = PhysicsWorld::new();
         world.gravity = Vector::new(0.0, 0.0, -GRAVITY as f32);
@@ -189,7 +201,7 @@ impl PhysicsRover {
         let mut ground = Vec::new();
         add_ground(&mut world, p, mesh, TriMeshFlags::empty(), &mut ground)?;
 
-        let orientation = quat::from_ypr(start[3], 0.0, 0.0);
+        let orientation = quat::from_ypr(start[3], tilt[0], tilt[1]);
         let base = [start[0], start[1], start[2] + p.wheel_radius_m + 0.01];
         let [l, w, h] = p.chassis_size_m;
         let chassis = world.insert_body(

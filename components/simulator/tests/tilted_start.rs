@@ -1,0 +1,94 @@
+//! The simulated rover starts as the real one stands: tilted on a side
+//! slope whose ground under the rover the scans never saw, it is not put
+//! down level on a shelf cut into the slope.
+
+use speleo_hal::sim::quat;
+use speleo_simulator::{CloudSource, InternalSim, SimulatorParams, Stance};
+
+/// Side slope angle, rad (about 20°): rising toward +y.
+const SLOPE: f64 = 0.36;
+
+fn ground(y: f64) -> f64 {
+    SLOPE.tan() * y
+}
+
+/// The slope scanned from sensors along y = 0, every 5 cm, except within
+/// 0.7 m of the rover at the origin (its own mast hides that ground).
+struct SideSlope {
+    origins: Vec<[f64; 3]>,
+    points: Vec<[f64; 3]>,
+}
+
+impl SideSlope {
+    fn new() -> Self {
+        let mut points = Vec::new();
+        for i in 0..200 {
+            let x = -2.0 + 0.05 * i as f64;
+            for j in 0..70 {
+                let y = -1.75 + 0.05 * j as f64;
+                if x.hypot(y) > 0.7 {
+                    points.push([x, y, ground(y)]);
+                }
+            }
+        }
+        let origins = [-1.0, 1.0, 3.0, 5.0].map(|x| [x, 0.0, 1.0]).to_vec();
+        SideSlope { origins, points }
+    }
+}
+
+impl CloudSource for SideSlope {
+    fn keyframes(&self) -> usize {
+        self.origins.len()
+    }
+    fn origin(&self, k: usize) -> Option<[f64; 3]> {
+        self.origins.get(k).copied()
+    }
+    fn points(&self, _: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
+        out.clear();
+        let to = (from + n).min(self.points.len());
+        out.extend_from_slice(&self.points[from.min(to)..to]);
+        to < self.points.len()
+    }
+}
+
+/// The simulated rover's tilt, deg, a second into the drive.
+fn tilt_after_a_second(start: Stance) -> f64 {
+    let p = SimulatorParams::default();
+    let mut sim = InternalSim::new(p.clone()).expect("sim");
+    let plan: Vec<[f64; 4]> = (0..=30).map(|i| [0.1 * i as f64, 0.0, 0.0, 0.0]).collect();
+    sim.begin(start, plan);
+    let scans = SideSlope::new();
+    let mut driving_steps = 0;
+    for _ in 0..2_000_000 {
+        if sim.work() == "drive" {
+            driving_steps += 1;
+        }
+        if driving_steps * 10 >= 1000 || sim.step(&scans, 1).is_some() {
+            break;
+        }
+    }
+    let s = sim.rover_state().expect("the rover is in the world");
+    let up = quat::rotate(&s.orientation, [0.0, 0.0, 1.0]);
+    up[2].clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+#[test]
+fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
+    let p = SimulatorParams::default();
+    // base_link over the ground, square to the slope.
+    let z = p.base_height_m / SLOPE.cos();
+    let tilted = Stance {
+        roll: SLOPE,
+        ..Stance::level(0.0, 0.0, z, 0.0)
+    };
+    let tilt = tilt_after_a_second(tilted);
+    assert!(
+        (tilt - SLOPE.to_degrees()).abs() < 4.0,
+        "{tilt:.1} deg on a {:.1} deg slope",
+        SLOPE.to_degrees()
+    );
+    // Put down level, as it was: it stands on a shelf cut into the
+    // slope, far less tilted than it is.
+    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0));
+    assert!(level < tilt - 8.0, "level {level:.1}, tilted {tilt:.1}");
+}
