@@ -322,6 +322,7 @@ pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParam
         stuck_after_s: s.stuck_after_s,
         newest_keyframes: s.newest_keyframes,
         base_height_m: base_height_m(cfg),
+        start_tilted: s.start_tilted,
         ..speleo_simulator::SimulatorParams::default()
     }
 }

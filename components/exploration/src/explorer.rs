@@ -16,12 +16,7 @@ pub const RESUME_AGAIN_M: f64 = 5.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ExplorerParams {
-    /// The rover "has been near" what lies within this radius, m. Not
-    /// more than the candidates' `min_distance_m` (2 m) by much: with
-    /// 3 m, a crest 2.5 m ahead of the rover (the floor beyond it falls
-    /// away at the angle of the LiDAR's view over it, unseen until the
-    /// rover stands on it) was covered, and the lava tube's rover turned
-    /// home from the middle of the tube.
+    /// The rover "has been near" what lies within this radius, m.
     pub coverage_radius_m: f64,
     pub coverage_resolution_m: f64,
     /// Side of the coverage map's square around the start, m.
@@ -47,7 +42,7 @@ pub struct ExplorerParams {
 impl Default for ExplorerParams {
     fn default() -> Self {
         ExplorerParams {
-            coverage_radius_m: 2.0,
+            coverage_radius_m: 3.0,
             coverage_resolution_m: 0.25,
             coverage_extent_m: 600.0,
             time_limit_s: 5400.0,

@@ -209,7 +209,12 @@ impl InternalSim {
                 break;
             }
         }
-        self.start = start;
+        self.start = if self.p.start_tilted {
+            start
+        } else {
+            let [x, y, z, yaw] = start.xyz_yaw();
+            Stance::level(x, y, z, yaw)
+        };
         let mut lo = start.position;
         let mut hi = lo;
         for q in &self.plan {
@@ -502,7 +507,9 @@ impl InternalSim {
                     half: FOOTPRINT_PAD_M,
                 };
                 let pad = ribbon::pad(&self.terrain, &footing);
-                let strip = self.ribbon(&footing);
+                // Level, the strip follows the plan as it always did.
+                let tilted = slope != [0.0; 2];
+                let strip = self.ribbon(tilted.then_some(&footing), footing.at);
                 let _ = r.add_ground(&pad);
                 let _ = r.add_ground(&strip);
                 self.rover = Some(Box::new(r));
@@ -520,14 +527,14 @@ impl InternalSim {
     /// the scans have a hole. As wide as the wheels plus the follower's
     /// straying, and a body's half length past both ends of the plan
     /// (the rover's front is past a frontier goal's seen ground).
-    fn ribbon(&self, footing: &ribbon::Footing) -> Mesh {
+    fn ribbon(&self, footing: Option<&ribbon::Footing>, start_ground: [f64; 3]) -> Mesh {
         let ph = &self.p.physics;
         let half_w = 0.5 * ph.track_width_m + ph.wheel_radius_m + RIBBON_MARGIN_M;
         let beyond = 0.5 * ph.wheelbase_m + ph.wheel_radius_m + RIBBON_MARGIN_M;
         let mut path = Vec::with_capacity(self.plan.len() + 1);
-        path.push(footing.at);
+        path.push(start_ground);
         path.extend(self.plan.iter().map(|q| [q[0], q[1], q[2]]));
-        ribbon::strip(&self.terrain, &path, half_w, beyond, Some(footing))
+        ribbon::strip(&self.terrain, &path, half_w, beyond, footing)
     }
 
     /// Whether tile `i` lies within the margin of the plan (or the start).

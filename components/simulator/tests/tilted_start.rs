@@ -51,9 +51,13 @@ impl CloudSource for SideSlope {
     }
 }
 
-/// The simulated rover's tilt, deg, a second into the drive.
-fn tilt_after_a_second(start: Stance) -> f64 {
-    let p = SimulatorParams::default();
+/// The simulated rover's tilt, deg, a second into the drive, with
+/// `start_tilted` on or off.
+fn tilt_after_a_second(start: Stance, start_tilted: bool) -> f64 {
+    let p = SimulatorParams {
+        start_tilted,
+        ..SimulatorParams::default()
+    };
     let mut sim = InternalSim::new(p.clone()).expect("sim");
     let plan: Vec<[f64; 4]> = (0..=30).map(|i| [0.1 * i as f64, 0.0, 0.0, 0.0]).collect();
     sim.begin(start, plan);
@@ -81,14 +85,18 @@ fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
         roll: SLOPE,
         ..Stance::level(0.0, 0.0, z, 0.0)
     };
-    let tilt = tilt_after_a_second(tilted);
+    let tilt = tilt_after_a_second(tilted, true);
     assert!(
         (tilt - SLOPE.to_degrees()).abs() < 4.0,
         "{tilt:.1} deg on a {:.1} deg slope",
         SLOPE.to_degrees()
     );
-    // Put down level, as it was: it stands on a shelf cut into the
-    // slope, far less tilted than it is.
-    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0));
+    // Put down level (the stance level, or the tilted start off): it
+    // stands on a shelf cut into the slope, far less tilted than it is.
+    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0), true);
+    assert_eq!(
+        tilt_after_a_second(tilted, false).to_bits(),
+        level.to_bits()
+    );
     assert!(level < tilt - 8.0, "level {level:.1}, tilted {tilt:.1}");
 }

@@ -42,6 +42,10 @@ pub struct SimulatorConfig {
     /// --dump-validations`). A debugging aid: files written from the
     /// planner task. Off by default.
     pub dump_dir: Option<std::path::PathBuf>,
+    /// Start the simulated rover pitched and rolled as SLAM says it
+    /// stands, not level (see `speleo_simulator::SimulatorParams`). Off by
+    /// default for now.
+    pub start_tilted: bool,
 }
 
 impl Default for SimulatorConfig {
@@ -59,6 +63,7 @@ impl Default for SimulatorConfig {
             newest_keyframes: p.newest_keyframes,
             worker_units: 120,
             dump_dir: None,
+            start_tilted: p.start_tilted,
         }
     }
 }
