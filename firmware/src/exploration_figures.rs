@@ -57,6 +57,8 @@ pub struct ExplorationFigures {
     pub resumes: u64,
     /// Stuck stops the rover backed out of; each place became an obstacle.
     pub backed_out: u64,
+    /// Back-outs the internal simulation refused (tilted past the limit).
+    pub back_outs_refused: u64,
     /// Times nothing was left but barred places, which were forgotten once.
     pub second_looks: u64,
     /// Candidate scans, and those that found nothing.
@@ -95,6 +97,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         retraces_refused: e.counters.retraces_refused,
         resumes: e.counters.resumes,
         backed_out: e.counters.backed_out,
+        back_outs_refused: e.counters.back_outs_refused,
         second_looks: e.counters.second_looks,
         climbed_m: e.climbed_m,
         descended_m: e.descended_m,
@@ -202,7 +205,14 @@ pub fn internal_sim(e: &Exploration, minor_frame_us: u32) -> Option<InternalSimF
     }
     let c = &e.counters;
     let w = e.worker.as_ref();
-    let names = ["timeout", "tipped_over", "stuck", "missed", "no_ground"];
+    let names = [
+        "timeout",
+        "tipped_over",
+        "stuck",
+        "missed",
+        "no_ground",
+        "no_way_back",
+    ];
     Some(InternalSimFigures {
         validations: c.validations,
         validated: c.validated,

@@ -323,6 +323,7 @@ pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParam
         newest_keyframes: s.newest_keyframes,
         base_height_m: base_height_m(cfg),
         start_tilted: s.start_tilted,
+        way_back_drop_m: s.way_back_drop_m,
         ..speleo_simulator::SimulatorParams::default()
     }
 }

@@ -881,12 +881,13 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
     let [x, y, z, yaw] = case.start.xyz_yaw();
     println!(
         "case: at {:.1} s from ({x:.2}, {y:.2}, {z:.2}) heading {:.1} deg (pitch {:.1}, roll {:.1}), \
-         plan {} poses {length:.2} m, {} keyframes, {} points read",
+         plan {} poses {length:.2} m{}, {} keyframes, {} points read",
         case.began_ns as f64 * 1e-9,
         yaw.to_degrees(),
         case.start.pitch.to_degrees(),
         case.start.roll.to_degrees(),
         case.plan.len(),
+        if case.way_back { " and back" } else { "" },
         case.keyframes.len(),
         case.points()
     );
@@ -930,7 +931,14 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
         let world = speleo_hal::world::World::build(name, a.seed)?;
         let ground = tv::crop(&world.mesh, start.position, &plan, params.margin_m);
         let mut wt = a.world_track.as_deref().map(create).transpose()?;
-        let t = tv::drive_on(ground, start, &plan, params, wt.as_mut().map(as_writer))?;
+        let t = tv::drive_on(
+            ground,
+            start,
+            case.way_back,
+            &plan,
+            params,
+            wt.as_mut().map(as_writer),
+        )?;
         if let Some(w) = wt.as_mut() {
             std::io::Write::flush(w)?;
         }

@@ -33,8 +33,14 @@ impl ValidationDump {
         })
     }
 
-    pub fn begin(&self, now: u64, start: Stance, plan: impl IntoIterator<Item = [f64; 4]>) {
-        self.case.borrow_mut().begin(now, start, plan);
+    pub fn begin(
+        &self,
+        now: u64,
+        start: Stance,
+        way_back: bool,
+        plan: impl IntoIterator<Item = [f64; 4]>,
+    ) {
+        self.case.borrow_mut().begin(now, start, way_back, plan);
     }
 
     /// The verdict is in: the case written as validation `index` (the

@@ -14,7 +14,7 @@ pub mod safety;
 
 pub use legs::{split_legs, Leg, MAX_LEGS};
 pub use limits::{AccelLimiter, AccelLimits};
-pub use plan_follower::PlanFollower;
+pub use plan_follower::{PlanFollower, REVERSE_SPEED_SCALE};
 pub use safety::{GroundProbe, Probe, SafetyMonitor, SafetyParams, StopReason};
 
 /// Most waypoints in one path.

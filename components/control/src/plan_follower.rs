@@ -6,7 +6,7 @@ use crate::legs::{split_legs, Leg, MAX_LEGS};
 use crate::{FollowerParams, Path, PurePursuit, Twist, MAX_WAYPOINTS};
 
 /// Backward legs are driven at this fraction of the forward command.
-const REVERSE_SPEED_SCALE: f64 = 0.5;
+pub const REVERSE_SPEED_SCALE: f64 = 0.5;
 
 #[derive(Clone, Debug)]
 pub struct PlanFollower {

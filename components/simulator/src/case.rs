@@ -6,7 +6,8 @@
 //!
 //! The file is little-endian binary: the magic `SPLVCASE`, a version,
 //! the mission time it began, the start (x, y, z, yaw, pitch, roll; version
-//! 1 had no pitch and roll), the plan's poses (x, y, ground z, heading),
+//! 1 had no pitch and roll), whether the way back was driven too (a byte;
+//! from version 3), the plan's poses (x, y, ground z, heading),
 //! the verdict the mission got (outcome code, driving time, goal error),
 //! then each keyframe: whether it had a pose, its sensor origin and the
 //! points read from it. Coordinates are the map frame's f64, so a replay
@@ -18,9 +19,11 @@ use std::io::{self, Read, Write};
 use crate::{CloudSource, Outcome, Stance, Verdict};
 
 const MAGIC: &[u8; 8] = b"SPLVCASE";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 /// Files of this version are still read (their start is level).
 const LEVEL_START_VERSION: u32 = 1;
+/// The first version with the start's pitch and roll.
+const TILTED_START_VERSION: u32 = 2;
 /// Bounds a corrupt file's counts before anything is allocated for them.
 const MAX_PLAN_POSES: u32 = 1 << 16;
 const MAX_KEYFRAMES: u32 = 1 << 16;
@@ -42,6 +45,8 @@ pub struct ValidationCase {
     /// simulated world).
     pub began_ns: u64,
     pub start: Stance,
+    /// The way back was driven too ([`crate::InternalSim::check_way_back`]).
+    pub way_back: bool,
     pub plan: Vec<[f64; 4]>,
     pub verdict: Option<Verdict>,
     pub keyframes: Vec<RecordedKeyframe>,
@@ -96,6 +101,7 @@ fn outcome_code(o: Option<Outcome>) -> u8 {
         Some(Outcome::Stuck) => 4,
         Some(Outcome::Missed) => 5,
         Some(Outcome::NoGround) => 6,
+        Some(Outcome::NoWayBack) => 7,
     }
 }
 
@@ -108,6 +114,7 @@ fn outcome_from(c: u8) -> Result<Option<Outcome>, CaseError> {
         4 => Outcome::Stuck,
         5 => Outcome::Missed,
         6 => Outcome::NoGround,
+        7 => Outcome::NoWayBack,
         _ => return Err(CaseError::Outcome(c)),
     }))
 }
@@ -118,10 +125,12 @@ impl ValidationCase {
         &mut self,
         began_ns: u64,
         start: Stance,
+        way_back: bool,
         plan: impl IntoIterator<Item = [f64; 4]>,
     ) {
         self.began_ns = began_ns;
         self.start = start;
+        self.way_back = way_back;
         self.plan.clear();
         self.plan.extend(plan);
         self.verdict = None;
@@ -139,6 +148,7 @@ impl ValidationCase {
         w.write_all(&self.began_ns.to_le_bytes())?;
         write_f64s(w, &self.start.xyz_yaw())?;
         write_f64s(w, &[self.start.pitch, self.start.roll])?;
+        w.write_all(&[self.way_back as u8])?;
         w.write_all(&(self.plan.len() as u32).to_le_bytes())?;
         for q in &self.plan {
             write_f64s(w, q)?;
@@ -171,7 +181,7 @@ impl ValidationCase {
             return Err(CaseError::NotACase);
         }
         let version = read_u32(r)?;
-        if version != VERSION && version != LEVEL_START_VERSION {
+        if !(LEVEL_START_VERSION..=VERSION).contains(&version) {
             return Err(CaseError::Version(version));
         }
         let mut t = [0u8; 8];
@@ -179,8 +189,12 @@ impl ValidationCase {
         let began_ns = u64::from_le_bytes(t);
         let [x, y, z, yaw] = read_f64s::<4>(r)?;
         let mut start = Stance::level(x, y, z, yaw);
-        if version >= 2 {
+        if version >= TILTED_START_VERSION {
             [start.pitch, start.roll] = read_f64s::<2>(r)?;
+        }
+        let mut way_back = [0u8];
+        if version >= 3 {
+            r.read_exact(&mut way_back)?;
         }
         let n = read_count(r, "plan poses", MAX_PLAN_POSES)?;
         let plan = (0..n)
@@ -212,6 +226,7 @@ impl ValidationCase {
         Ok(ValidationCase {
             began_ns,
             start,
+            way_back: way_back[0] != 0,
             plan,
             verdict,
             keyframes,

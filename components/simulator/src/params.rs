@@ -47,6 +47,9 @@ pub struct SimulatorParams {
     /// but in the missions measured with it the rover met failures the
     /// level start had kept it from (see the simulator's README).
     pub start_tilted: bool,
+    /// A plan that took the rover down more than this is driven back too
+    /// when asked ([`crate::InternalSim::check_way_back`]), m; 0: never.
+    pub way_back_drop_m: f64,
 }
 
 impl Default for SimulatorParams {
@@ -86,6 +89,7 @@ impl Default for SimulatorParams {
             stuck_progress_m: 0.1,
             base_height_m: 0.9 * physics.wheel_radius_m,
             start_tilted: false,
+            way_back_drop_m: 0.0,
             physics,
         }
     }
@@ -107,6 +111,12 @@ impl SimulatorParams {
             if !(v.is_finite() && v > 0.0) {
                 return Err(format!("simulator {k} must be a positive number, is {v}"));
             }
+        }
+        if !(self.way_back_drop_m.is_finite() && self.way_back_drop_m >= 0.0) {
+            return Err(format!(
+                "simulator way_back_drop_m must be 0 or more, is {}",
+                self.way_back_drop_m
+            ));
         }
         if self.max_blocks == 0 {
             return Err("simulator max_blocks must be positive".into());

@@ -1,7 +1,7 @@
 //! One validation: build the world around the plan, settle the rover,
 //! drive the plan, judge.
 
-use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS};
+use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS, REVERSE_SPEED_SCALE};
 use speleo_hal::sim::physics::PhysicsRover;
 use speleo_hal::world::Mesh;
 
@@ -48,6 +48,9 @@ pub enum Outcome {
     Missed,
     /// There was no ground under the rover (the map is empty there).
     NoGround,
+    /// The goal was reached, down a slope the rover could not drive back
+    /// up (see [`InternalSim::check_way_back`]).
+    NoWayBack,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -154,6 +157,11 @@ pub struct InternalSim {
     given_ground: Option<Mesh>,
     /// Steps since motion began, once it has.
     moving_since: Option<u64>,
+    /// Whether the way back is driven once the goal is reached.
+    way_back: bool,
+    /// Driving the way back: the step it began and the verdict the plan
+    /// itself got.
+    returning: Option<(u64, Verdict)>,
     time_allowed_s: f64,
     /// The world's box, low and high corners.
     bounds: ([f64; 3], [f64; 3]),
@@ -184,6 +192,8 @@ impl InternalSim {
             command: (0.0, 0.0),
             given_ground: None,
             moving_since: None,
+            way_back: false,
+            returning: None,
             time_allowed_s: 0.0,
             bounds: ([0.0; 3], [0.0; 3]),
             lowest_z: 0.0,
@@ -241,6 +251,8 @@ impl InternalSim {
         self.prediction.clear();
         self.verdict = None;
         self.moving_since = None;
+        self.way_back = false;
+        self.returning = None;
         self.step = 0;
         self.targets = [0.0; 4];
         self.command = (0.0, 0.0);
@@ -262,6 +274,22 @@ impl InternalSim {
     ) {
         self.begin(start, plan);
         self.given_ground = Some(ground);
+    }
+
+    /// Once the plan begun last has reached its goal down a slope (the
+    /// rover's lowest point on the way more than
+    /// [`SimulatorParams::way_back_drop_m`] under its start), drive it
+    /// back, backward along the plan to the start, in the same world:
+    /// the plan passes only if that reaches the start too, without
+    /// tilting past [`SimulatorParams::tip_over_deg`] or sticking.
+    /// Otherwise its verdict is [`Outcome::NoWayBack`]. The prediction
+    /// and the verdict's time and goal error stay the plan's own. For
+    /// exploring plans: in the lava tube a rover that drove down along a
+    /// wall's foot at the far end found no way back up (every one tilted
+    /// past the safety monitor's 30 degrees, on the map and on the true
+    /// surface alike) and was stranded there.
+    pub fn check_way_back(&mut self) {
+        self.way_back = self.p.way_back_drop_m > 0.0;
     }
 
     /// What the next step works on: "integrate", "ground", "drive", or
@@ -575,6 +603,17 @@ impl InternalSim {
     }
 
     fn finish(&mut self, outcome: Outcome) -> Phase {
+        if let Some((_, plan)) = self.returning {
+            self.verdict = Some(if outcome == Outcome::Reached {
+                plan
+            } else {
+                Verdict {
+                    outcome: Outcome::NoWayBack,
+                    ..plan
+                }
+            });
+            return Phase::Done;
+        }
         let goal_error_m = self.goal_error();
         self.verdict = Some(Verdict {
             outcome,
@@ -633,7 +672,7 @@ impl InternalSim {
                 self.moving_since = Some(self.step);
             }
         }
-        if let Some(since) = self.moving_since {
+        if let (Some(since), None) = (self.moving_since, self.returning) {
             let every = (SAMPLE_PERIOD_S / dt).round().max(1.0) as u64;
             if (self.step - since).is_multiple_of(every) {
                 self.prediction.push(s.position);
@@ -657,6 +696,10 @@ impl InternalSim {
             } else {
                 Outcome::Missed
             };
+            if outcome == Outcome::Reached && self.way_back_due() {
+                self.begin_way_back(t, [x, y], yaw);
+                return None;
+            }
             return self.verdict_now(outcome);
         }
         let turned = (yaw - self.anchor.2 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
@@ -668,13 +711,50 @@ impl InternalSim {
         } else if self.step > settle_steps && t - self.anchor.0 > self.p.stuck_after_s {
             return self.verdict_now(Outcome::Stuck);
         }
-        let driving_s = self
-            .moving_since
-            .map_or(0.0, |m| (self.step - m) as f64 * dt);
-        if t > self.p.settle_s + self.time_allowed_s || driving_s > self.time_allowed_s {
+        // Backward, the follower drives at a fraction of the speed.
+        let (since, allowed) = match self.returning {
+            Some((r, _)) => (Some(r), self.time_allowed_s / REVERSE_SPEED_SCALE),
+            None => (self.moving_since, self.time_allowed_s),
+        };
+        let driving_s = since.map_or(0.0, |m| (self.step - m) as f64 * dt);
+        let waited = self.returning.is_none() && t > self.p.settle_s + self.time_allowed_s;
+        if waited || driving_s > allowed {
             return self.verdict_now(Outcome::Timeout);
         }
         None
+    }
+
+    /// Whether the goal just reached calls for the way back: asked for,
+    /// not driven yet, and the rover went down on the way.
+    fn way_back_due(&self) -> bool {
+        let points = self.prediction();
+        if !self.way_back || self.returning.is_some() || points.is_empty() {
+            return false;
+        }
+        let lowest = points.iter().map(|p| p[2]).fold(f64::INFINITY, f64::min);
+        lowest < points[0][2] - self.p.way_back_drop_m
+    }
+
+    /// The plan reversed, to the start, each pose keeping its heading:
+    /// driven backward, without turning round on the slope.
+    fn begin_way_back(&mut self, t: f64, at: [f64; 2], yaw: f64) {
+        let plan = Verdict {
+            outcome: Outcome::Reached,
+            drive_s: self
+                .moving_since
+                .map_or(0.0, |s| (self.step - s) as f64 * self.p.dt_s),
+            goal_error_m: self.goal_error(),
+        };
+        self.returning = Some((self.step, plan));
+        self.plan.reverse();
+        let [x, y, z, heading] = self.start.xyz_yaw();
+        if self.plan.is_full() {
+            self.plan.pop();
+        }
+        let _ = self.plan.push([x, y, z - self.p.base_height_m, heading]);
+        let poses = self.plan.iter().map(|q| [q[0], q[1], q[3]]);
+        self.follower.set_plan(poses);
+        self.anchor = (t, at, yaw);
     }
 
     fn verdict_now(&mut self, outcome: Outcome) -> Option<Verdict> {

@@ -100,7 +100,7 @@ fn drive(sim: &mut InternalSim, clouds: &impl CloudSource) -> Run {
 fn recorded() -> (Run, Vec<u8>) {
     let scans = Ledge::new();
     let case = RefCell::new(ValidationCase::default());
-    case.borrow_mut().begin(42, start(), plan());
+    case.borrow_mut().begin(42, start(), false, plan());
     let mut sim = InternalSim::new(SimulatorParams::default()).expect("sim");
     sim.begin(start(), plan());
     let got = {
@@ -160,13 +160,14 @@ fn a_damaged_case_is_refused_with_its_reason() {
     newer[8] = 9;
     let v = ValidationCase::read(&mut newer.as_slice()).expect_err("refused");
     assert!(matches!(v, CaseError::Version(9)), "{v}");
-    // The plan's pose count, just after the magic, version, time and start.
+    // The plan's pose count, just after the magic, version, time, start
+    // and the way-back byte.
     let mut huge = bytes.clone();
-    huge[68..72].copy_from_slice(&u32::MAX.to_le_bytes());
+    huge[69..73].copy_from_slice(&u32::MAX.to_le_bytes());
     let h = ValidationCase::read(&mut huge.as_slice()).expect_err("refused");
     assert!(matches!(h, CaseError::Count { .. }), "{h}");
     let mut outcome = bytes;
-    let at = 72 + plan().len() * 32;
+    let at = 73 + plan().len() * 32;
     outcome[at] = 77;
     let o = ValidationCase::read(&mut outcome.as_slice()).expect_err("refused");
     assert!(matches!(o, CaseError::Outcome(77)), "{o}");
@@ -178,9 +179,32 @@ fn a_case_of_the_first_version_is_read_with_a_level_start() {
     let (_, bytes) = recorded();
     let mut old = bytes[..52].to_vec();
     old[8..12].copy_from_slice(&1u32.to_le_bytes());
-    old.extend_from_slice(&bytes[68..]);
+    old.extend_from_slice(&bytes[69..]);
     let case = ValidationCase::read(&mut old.as_slice()).expect("a version 1 case");
     let s = start();
     assert_eq!(case.start, Stance::level(0.0, 0.0, s.position[2], s.yaw));
     assert_eq!(case.plan, plan());
+    assert!(!case.way_back);
+}
+
+#[test]
+fn a_case_keeps_whether_the_way_back_was_driven_and_one_of_the_second_version_had_none() {
+    let (_, bytes) = recorded();
+    let mut case = ValidationCase::read(&mut bytes.as_slice()).expect("read");
+    assert!(!case.way_back);
+    case.way_back = true;
+    let mut again = Vec::new();
+    case.write(&mut again).expect("write");
+    assert_eq!(
+        ValidationCase::read(&mut again.as_slice()).expect("read"),
+        case
+    );
+    // Version 2: no way-back byte after the start.
+    let mut v2 = again[..68].to_vec();
+    v2[8..12].copy_from_slice(&2u32.to_le_bytes());
+    v2.extend_from_slice(&again[69..]);
+    let old = ValidationCase::read(&mut v2.as_slice()).expect("a version 2 case");
+    assert_eq!(old.start, case.start);
+    assert!(!old.way_back);
+    assert_eq!(old.plan, case.plan);
 }

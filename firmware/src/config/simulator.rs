@@ -46,6 +46,10 @@ pub struct SimulatorConfig {
     /// stands, not level (see `speleo_simulator::SimulatorParams`). Off by
     /// default for now.
     pub start_tilted: bool,
+    /// An exploring plan that takes the rover down more than this is
+    /// driven back up too, backward to its start, and refused when that
+    /// fails (`no_way_back`), m; 0: never.
+    pub way_back_drop_m: f64,
 }
 
 impl Default for SimulatorConfig {
@@ -64,6 +68,7 @@ impl Default for SimulatorConfig {
             worker_units: 120,
             dump_dir: None,
             start_tilted: p.start_tilted,
+            way_back_drop_m: p.way_back_drop_m,
         }
     }
 }
@@ -102,6 +107,13 @@ impl SimulatorConfig {
             1,
             100_000,
             "1..=100000",
+        )?;
+        range(
+            &k("way_back_drop_m"),
+            self.way_back_drop_m,
+            0.0,
+            100.0,
+            "0..=100",
         )?;
         range(&k("worker_units"), self.worker_units, 0, 4096, "0..=4096")?;
         Ok(())

@@ -6,6 +6,7 @@
 
 use speleo_control::StopReason;
 use speleo_exploration::{CandidateParams, CandidateScan, Explorer, ExplorerParams, Mode};
+use speleo_mapping::mls::ground_near;
 use speleo_simulator::{
     driven_prefix, rmse_at_equal_times, InternalSim, Outcome, Prefix, PrefixRule, PREDICTION_POINTS,
 };
@@ -39,15 +40,19 @@ pub struct ExplorationCounters {
     /// Stuck stops after which the rover backed out (straight, backward
     /// or forward) and the place became an obstacle for the planner.
     pub backed_out: u64,
+    /// Back-outs the internal simulation refused (not driven): they
+    /// tilted the simulated rover past the limit or left the ground.
+    pub back_outs_refused: u64,
     /// Times nothing was left but barred places, which were forgotten
     /// to explore on (once a mission).
     pub second_looks: u64,
     /// Plans driven in the internal simulator, those it passed and those
-    /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground).
+    /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground,
+    /// no way back).
     pub validations: u64,
     pub validated: u64,
     pub rejected_by_sim: u64,
-    pub sim_outcomes: [u64; 5],
+    pub sim_outcomes: [u64; 6],
     pub sim_physics_steps: u64,
     pub sim_triangles_max: u64,
     /// Refused plans whose first part, the part the simulated rover drove
@@ -73,6 +78,9 @@ pub const NO_GO_RADIUS_M: f64 = 0.6;
 
 /// After a stuck stop the rover backs this far, m.
 const BACK_OUT_M: f64 = 1.0;
+/// A back-out's poses lie on the map's ground nearest the rover's
+/// height within this, m (a drop's floor included).
+const BACK_OUT_GROUND_M: f32 = 2.0;
 
 /// The longest well-driven first part of the plans the simulation refused
 /// in one query ([`speleo_simulator::driven_prefix`]): the rover drives it
@@ -315,9 +323,8 @@ impl Exploration {
     /// gap the planner no longer bridges); the safety monitor still
     /// watches every metre of it. With the internal simulator the
     /// retrace is only shown, and true returned: it is driven once the
-    /// simulation passes it ([`Exploration::driving`]). A back-out is
-    /// driven at once (straight, a metre, off what holds the rover: the
-    /// simulation cannot tell what that is).
+    /// simulation passes it ([`Exploration::driving`]). So is a back-out
+    /// ([`Exploration::back_out_passed`]), judged more leniently.
     pub fn retrace(&mut self, bus: &mut Bus, now: u64, query: u64, ahead_m: f64) -> bool {
         self.stranded = false;
         if core::mem::take(&mut self.back_out) {
@@ -329,8 +336,7 @@ impl Exploration {
             let round = self.escape_attempts % ESCAPE_ROUND;
             self.escape_attempts += 1;
             if round < 2 {
-                self.back_out(bus, now, query, round == 1);
-                return false;
+                return self.back_out(bus, now, query, round == 1);
             }
         }
         self.backing_out = false;
@@ -458,10 +464,12 @@ impl Exploration {
 
     /// Get off what held the rover: straight along its body axis, without
     /// turning (a rover sitting on a rock pivots on it when it turns),
-    /// backward first and, when that fails too, forward, and so on.
-    fn back_out(&mut self, bus: &mut Bus, now: u64, query: u64, forward: bool) {
+    /// backward first and, when that fails too, forward, and so on. With
+    /// the internal simulator it is only shown, and true returned (see
+    /// [`Exploration::back_out_passed`]).
+    fn back_out(&mut self, bus: &mut Bus, now: u64, query: u64, forward: bool) -> bool {
         let Some(p) = bus.slam.get().map(|p| p.value) else {
-            return;
+            return false;
         };
         self.counters.backed_out += 1;
         self.backing_out = true;
@@ -473,26 +481,65 @@ impl Exploration {
             backward = sign > 0.0,
             "backing out"
         );
+        let validate = self.validates();
         let mut msg = PlanMsg {
             query,
-            execute: true,
+            execute: !validate,
             ..PlanMsg::default()
         };
         const STEPS: usize = 5;
+        let mls = bus.surface.serving();
         for k in 0..=STEPS {
             let d = -sign * BACK_OUT_M * k as f64 / STEPS as f64;
-            let _ = msg.poses.push([
-                (p.position[0] + d * yaw.cos()) as f32,
-                (p.position[1] + d * yaw.sin()) as f32,
-                p.position[2] as f32,
-                yaw as f32,
-            ]);
+            let (x, y) = (p.position[0] + d * yaw.cos(), p.position[1] + d * yaw.sin());
+            // The map's ground there, for the simulation's strip of ground
+            // along the plan: at the rover's height it would bridge a drop.
+            let (ix, iy) = mls.cell_of(x, y);
+            let z = ground_near(mls.cell(ix, iy), p.position[2] as f32, BACK_OUT_GROUND_M)
+                .unwrap_or(p.position[2] as f32);
+            let _ = msg.poses.push([x as f32, y as f32, z, yaw as f32]);
         }
-        self.executing = query;
-        self.counters.plans_executed += 1;
+        if !validate {
+            self.executing = query;
+            self.counters.plans_executed += 1;
+        }
         // No goal: a back-out stopped on its way rejects no candidate.
         bus.exploration.goal = None;
         bus.plan.publish(now, msg);
+        validate
+    }
+
+    /// The plan shown is a back-out.
+    pub fn backing_out(&self) -> bool {
+        self.backing_out
+    }
+
+    /// Whether the simulation's `outcome` lets the back-out shown be
+    /// driven. Not whether it gets free: what holds the rover is what
+    /// the map does not show (the real rover stuck where the simulated
+    /// one drove), so a simulated rover stuck or short of the end passes.
+    /// But a back-out that tilts it past the limit or off the ground does
+    /// not: in the garage a blind back-out from a turn stuck on a ramp
+    /// went down the ramp's side to 30 degrees of tilt, and no plan moved
+    /// the rover from there.
+    pub fn back_out_passes(outcome: Outcome) -> bool {
+        !matches!(outcome, Outcome::TippedOver | Outcome::NoGround)
+    }
+
+    /// The back-out shown, passed, is driven as plan `query`.
+    pub fn back_out_passed(&mut self, query: u64) {
+        self.executing = query;
+        self.counters.plans_executed += 1;
+    }
+
+    /// The simulation refused the back-out shown: nothing is driven, and
+    /// the next query tries the next escape (the other way, then the
+    /// track).
+    pub fn back_out_refused(&mut self) {
+        self.counters.back_outs_refused += 1;
+        self.backing_out = false;
+        self.back_out = true;
+        self.stranded = true;
     }
 
     /// Validate every plan in `sim` first, its world made of the keyframe
@@ -605,6 +652,7 @@ impl Exploration {
             Outcome::Stuck => 2,
             Outcome::Missed => 3,
             Outcome::NoGround => 4,
+            Outcome::NoWayBack => 5,
         };
         self.counters.rejected_by_sim += 1;
         self.counters.sim_outcomes[k] += 1;

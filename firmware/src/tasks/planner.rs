@@ -848,6 +848,9 @@ impl PlannerTask {
         let Some(ex) = self.explore.as_deref_mut() else {
             return false;
         };
+        // Exploring plans only: a retrace goes back the way the rover
+        // came, and home is where it must go anyway.
+        let way_back = !self.query.retrace && ex.mode() == Mode::Exploring;
         let (Some(sim), Some(plan)) = (ex.sim_home(), bus.plan.get()) else {
             return false;
         };
@@ -858,8 +861,11 @@ impl PlannerTask {
             .iter()
             .map(|p| [p[0] as f64, p[1] as f64, p[2] as f64, p[3] as f64]);
         sim.begin(start, poses.clone());
+        if way_back {
+            sim.check_way_back();
+        }
         if let Some(d) = &ex.dump {
-            d.begin(now, start, poses);
+            d.begin(now, start, way_back, poses);
         }
         ex.validation_began_ns = now;
         // The old world's teardown needs no clouds: on the worker already.
@@ -918,6 +924,22 @@ impl PlannerTask {
         }
         ex.dump = dump;
         tracing::debug!(outcome = ?v.outcome, drive_s = v.drive_s, goal_error_m = v.goal_error_m, start_z = self.query.rover[2], end_x = end[0], end_y = end[1], end_z = end[2], retrace = self.query.retrace, "simulated");
+        if self.query.retrace && ex.backing_out() {
+            let query = self.counters.queries;
+            if Exploration::back_out_passes(v.outcome) {
+                if let Some(p) = bus.plan.get() {
+                    let mut msg = p.value.clone();
+                    msg.execute = true;
+                    bus.plan.publish(now, msg);
+                }
+                ex.back_out_passed(query);
+            } else {
+                tracing::debug!(outcome = ?v.outcome, "back-out refused");
+                ex.back_out_refused();
+            }
+            self.end_query();
+            return;
+        }
         if self.query.retrace {
             let query = self.counters.queries;
             if v.success() {
@@ -946,8 +968,9 @@ impl PlannerTask {
         let at = self.query.order[self.query.tried].1;
         if ex.mode() == Mode::Exploring {
             ex.explorer.reject([at[0], at[1]]);
-            // A tip-over's run-up is no ground to stop on.
-            if v.outcome != Outcome::TippedOver {
+            // A tip-over's run-up is no ground to stop on; a plan without
+            // a way back was driven whole.
+            if !matches!(v.outcome, Outcome::TippedOver | Outcome::NoWayBack) {
                 if let Some(plan) = bus.plan.get() {
                     ex.offer_partial(&plan.value.poses, at);
                 }
@@ -1390,6 +1413,20 @@ mod tests {
     /// from three keyframes along it; the rover at (`rover_x`, 2). Closed,
     /// a wall shuts the corridor's near end.
     fn bus_before_a_ledge(rover_x: f64, closed: bool) -> Box<Bus> {
+        let ground = |x: f64| if x < 10.0 { 0.0 } else { LEDGE_M };
+        let sensors = [[4.0, 2.0, 0.8], [8.0, 2.0, 0.8], [12.0, 2.0, 1.1]];
+        bus_in_a_corridor(ground, closed, [rover_x, 2.0, 0.17], &sensors)
+    }
+
+    /// A 16 x 4 m corridor along x of floor `ground(x)`, a face wherever
+    /// it steps, seen densely from `sensors`; the rover at `rover`.
+    /// Closed, a wall shuts the corridor's near end.
+    fn bus_in_a_corridor(
+        ground: impl Fn(f64) -> f64,
+        closed: bool,
+        rover: [f64; 3],
+        sensors: &[[f64; 3]],
+    ) -> Box<Bus> {
         use crate::keyframe_clouds::KeyframeClouds;
         use nalgebra::{Matrix3, Vector3};
         use speleo_slam::lie::Pose;
@@ -1397,12 +1434,12 @@ mod tests {
         for i in 0..320 {
             for j in 0..80 {
                 let (x, y) = (i as f64 * 0.05 + 0.025, j as f64 * 0.05 + 0.025);
-                let ground = if x < 10.0 { 0.0 } else { LEDGE_M };
-                pts.push([x, y, ground]);
+                let z = ground(x);
+                pts.push([x, y, z]);
                 // Walls along both sides: a corridor open at its ends.
                 if j == 0 || j == 79 {
                     for k in 1..20 {
-                        pts.push([x, y, ground + 0.05 * k as f64]);
+                        pts.push([x, y, z + 0.05 * k as f64]);
                     }
                 }
                 if closed && i == 0 {
@@ -1410,18 +1447,16 @@ mod tests {
                         pts.push([0.0, y, 0.05 * k as f64]);
                     }
                 }
-                if i == 200 {
-                    // Its face.
-                    let mut h = 0.05;
-                    while h < LEDGE_M {
-                        pts.push([10.0, y, h]);
-                        h += 0.05;
-                    }
+                // The face between this column and the next.
+                let next = ground(x + 0.05);
+                let mut h = z.min(next) + 0.05;
+                while h < z.max(next) {
+                    pts.push([x + 0.025, y, h]);
+                    h += 0.05;
                 }
             }
         }
-        let mut bus = bus_with_map(&pts, [rover_x, 2.0, 0.17]);
-        let sensors = [[4.0, 2.0, 0.8], [8.0, 2.0, 0.8], [12.0, 2.0, 1.1]];
+        let mut bus = bus_with_map(&pts, rover);
         bus.keyframe_clouds = KeyframeClouds::new(sensors.len(), pts.len());
         for o in sensors {
             assert!(bus.keyframe_clouds.begin());
@@ -1431,8 +1466,11 @@ mod tests {
             }
             bus.keyframe_clouds.commit();
         }
-        bus.keyframe_clouds
-            .set_poses(sensors.map(|o| Pose::new(Matrix3::identity(), Vector3::from(o))));
+        bus.keyframe_clouds.set_poses(
+            sensors
+                .iter()
+                .map(|&o| Pose::new(Matrix3::identity(), Vector3::from(o))),
+        );
         bus
     }
 
@@ -1560,6 +1598,70 @@ mod tests {
         assert!(shown.iter().all(|p| !p.execute), "{shown:?}");
         assert_eq!(mode, Mode::Stranded, "{c:?}");
         assert_eq!(c.retraces_refused, 8, "{c:?}");
+    }
+
+    #[test]
+    fn a_back_out_over_a_drop_is_refused_by_the_simulation_and_the_other_way_driven() {
+        use crate::bus::WheelCommand;
+        use speleo_control::StopReason;
+        // On a shelf whose edge is 0.4 m behind the rover, a 0.8 m drop
+        // under it; the rover faces away from it and is stuck.
+        let ground = |x: f64| if x < 9.3 { -0.8 } else { 0.0 };
+        let sensors = [[6.0, 2.0, 0.0], [10.0, 2.0, 0.8], [13.0, 2.0, 0.8]];
+        let mut bus = bus_in_a_corridor(ground, false, [9.7, 2.0, 0.17], &sensors);
+        let cfg = PlannerConfig::default();
+        let prims = speleo_planner::primitives::generate(&Default::default());
+        let e = crate::config::ExplorationConfig::default();
+        let sim = speleo_simulator::InternalSim::new(Default::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0)
+            .with_simulator(sim, speleo_slam::lie::Pose::identity());
+        ex.observe(&mut bus, 0);
+        bus.command.publish(
+            100_000_000,
+            WheelCommand {
+                done: true,
+                stop: StopReason::Stuck as u8,
+                ..Default::default()
+            },
+        );
+        let mut t = PlannerTask::new(&cfg, &prims, 0.1, &[], false, 0.17)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .with_exploration(ex);
+        let mut shown: Vec<PlanMsg> = Vec::new();
+        for f in 0..200_000 {
+            t.step(&mut bus, &cx(2 + f), 32);
+            if let Some(p) = bus.plan.get() {
+                if shown.last() != Some(&p.value) {
+                    shown.push(p.value.clone());
+                }
+                if p.value.execute {
+                    break;
+                }
+            }
+        }
+        let c = t.exploration().map(|e| e.counters).unwrap_or_default();
+        let ends: Vec<f32> = shown
+            .iter()
+            .filter_map(|p| p.poses.last())
+            .map(|q| q[0])
+            .collect();
+        // Backward over the edge: shown, simulated, refused. Forward:
+        // driven. Both straight, facing ahead.
+        assert_eq!(
+            (c.backed_out, c.back_outs_refused),
+            (2, 1),
+            "{c:?} {ends:?}"
+        );
+        let driven = shown.last().unwrap_or_else(|| panic!("nothing shown"));
+        assert!(driven.execute, "{shown:?}");
+        assert!(
+            shown[..shown.len() - 1].iter().all(|p| !p.execute),
+            "{shown:?}"
+        );
+        assert!((ends[0] - 8.7).abs() < 1e-3, "{ends:?}");
+        assert!((ends[ends.len() - 1] - 10.7).abs() < 1e-3, "{ends:?}");
+        assert!(driven.poses.iter().all(|q| q[3].abs() < 1e-6), "{driven:?}");
     }
 
     #[test]

@@ -62,6 +62,9 @@ pub fn replay(
 ) -> Result<Drive, Error> {
     let mut sim = InternalSim::new(params)?;
     sim.begin(case.start, case.plan.iter().copied());
+    if case.way_back {
+        sim.check_way_back();
+    }
     drive(&mut sim, |s| s.step(case, 1), track, mesh)
 }
 
@@ -69,12 +72,16 @@ pub fn replay(
 pub fn drive_on(
     ground: Mesh,
     start: Stance,
+    way_back: bool,
     plan: &[[f64; 4]],
     params: SimulatorParams,
     track: Option<&mut dyn Write>,
 ) -> Result<Drive, Error> {
     let mut sim = InternalSim::new(params)?;
     sim.begin_on(start, plan.iter().copied(), ground);
+    if way_back {
+        sim.check_way_back();
+    }
     drive(&mut sim, |s| s.step_without_clouds(1), track, None)
 }
 
