@@ -78,9 +78,24 @@ pub const NO_GO_RADIUS_M: f64 = 0.6;
 
 /// After a stuck stop the rover backs this far, m.
 const BACK_OUT_M: f64 = 1.0;
-/// A back-out's poses lie on the map's ground nearest the rover's
-/// height within this, m (a drop's floor included).
-const BACK_OUT_GROUND_M: f32 = 2.0;
+/// A retrace's and a back-out's poses lie on the map's ground nearest
+/// the rover's within this, m (a drop's floor included).
+const GROUND_SEARCH_M: f32 = 2.0;
+
+/// The map's ground at `x, y` nearest `ground_z` (within
+/// [`GROUND_SEARCH_M`]), or `ground_z` where the map has none: plan
+/// poses are ground heights, and the internal simulation lays its strip
+/// of ground along the plan from them. At the rover's own height (its
+/// track is base_link's), the strip stood 0.17 m over the holes in the
+/// scans and picked up rims that high over the floor: on the lava tube's
+/// slope 47 m in, every retrace home tipped the simulated rover at a
+/// phantom step, 30 degrees, where the true surface tilts it 25, and the
+/// rover was stranded; laid on the ground, the same retraces reach home.
+fn ground_at(bus: &Bus, x: f64, y: f64, ground_z: f64) -> f64 {
+    let mls = bus.surface.serving();
+    let (ix, iy) = mls.cell_of(x, y);
+    ground_near(mls.cell(ix, iy), ground_z as f32, GROUND_SEARCH_M).map_or(ground_z, f64::from)
+}
 
 /// The longest well-driven first part of the plans the simulation refused
 /// in one query ([`speleo_simulator::driven_prefix`]): the rover drives it
@@ -204,6 +219,9 @@ pub struct Exploration {
     /// [`Exploration::count_tilt_stall`]), and where that was.
     tilt_stalls: u32,
     last_tilt_stop: [f64; 3],
+    /// base_link over the ground, m: the track is base_link's, plans are
+    /// on the ground ([`Exploration::set_base_height`]).
+    base_height_m: f64,
 }
 
 /// Escapes from a stuck place, in turn: a back-out backward, one forward,
@@ -270,6 +288,7 @@ impl Exploration {
             refused_here: 0,
             tilt_stalls: 0,
             last_tilt_stop: [f64::INFINITY; 3],
+            base_height_m: 0.0,
         }
     }
 
@@ -409,9 +428,10 @@ impl Exploration {
             };
             let heading = (along + turn + core::f64::consts::PI).rem_euclid(core::f64::consts::TAU)
                 - core::f64::consts::PI;
+            let z = ground_at(bus, a[0], a[1], a[2] - self.base_height_m);
             let _ = msg
                 .poses
-                .push([a[0] as f32, a[1] as f32, a[2] as f32, heading as f32]);
+                .push([a[0] as f32, a[1] as f32, z as f32, heading as f32]);
         }
         tracing::debug!(
             x = pose[0],
@@ -488,16 +508,13 @@ impl Exploration {
             ..PlanMsg::default()
         };
         const STEPS: usize = 5;
-        let mls = bus.surface.serving();
+        let ground = p.position[2] - self.base_height_m;
         for k in 0..=STEPS {
             let d = -sign * BACK_OUT_M * k as f64 / STEPS as f64;
             let (x, y) = (p.position[0] + d * yaw.cos(), p.position[1] + d * yaw.sin());
-            // The map's ground there, for the simulation's strip of ground
-            // along the plan: at the rover's height it would bridge a drop.
-            let (ix, iy) = mls.cell_of(x, y);
-            let z = ground_near(mls.cell(ix, iy), p.position[2] as f32, BACK_OUT_GROUND_M)
-                .unwrap_or(p.position[2] as f32);
-            let _ = msg.poses.push([x as f32, y as f32, z, yaw as f32]);
+            // At the rover's ground height the strip would bridge a drop.
+            let z = ground_at(bus, x, y, ground);
+            let _ = msg.poses.push([x as f32, y as f32, z as f32, yaw as f32]);
         }
         if !validate {
             self.executing = query;
@@ -540,6 +557,11 @@ impl Exploration {
         self.backing_out = false;
         self.back_out = true;
         self.stranded = true;
+    }
+
+    /// base_link's height over the ground, m (the planner's).
+    pub fn set_base_height(&mut self, base_height_m: f64) {
+        self.base_height_m = base_height_m;
     }
 
     /// Validate every plan in `sim` first, its world made of the keyframe

@@ -264,7 +264,8 @@ impl PlannerTask {
     }
 
     /// Take the exploration's goals instead of the route's.
-    pub fn with_exploration(mut self, e: Exploration) -> Self {
+    pub fn with_exploration(mut self, mut e: Exploration) -> Self {
+        e.set_base_height(self.base_height_m);
         self.explore = Some(Box::new(e));
         self
     }
@@ -1675,6 +1676,13 @@ mod tests {
         assert_eq!(shown[0].poses, shown[1].poses);
         assert!(shown[1].poses.len() > 2, "{:?}", shown[1]);
         assert!(shown[1].poses.iter().all(|q| q[0] < 8.1), "{:?}", shown[1]);
+        // On the floor, not at base_link's height along the track: the
+        // simulation's strip follows the poses.
+        assert!(
+            shown[1].poses.iter().all(|q| q[2].abs() < 0.05),
+            "{:?}",
+            shown[1]
+        );
         // Back up the ledge the track came down: refused, never driven,
         // and tried again (the other way) at the next query.
         let (c, shown) = retrace_before_a_ledge(13.0, 20_000);
