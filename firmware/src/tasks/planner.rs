@@ -1541,6 +1541,16 @@ mod tests {
         (c, shown)
     }
 
+    /// Exploration with the default settings, every plan validated in
+    /// a default internal simulator.
+    fn validating_exploration() -> Exploration {
+        let e = crate::config::ExplorationConfig::default();
+        let sim = speleo_simulator::InternalSim::new(Default::default())
+            .unwrap_or_else(|e| panic!("{e}"));
+        Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0)
+            .with_simulator(sim, speleo_slam::lie::Pose::identity())
+    }
+
     /// [`retrace_before_a_ledge`], and the explorer's mode at the end.
     fn retraces_before_a_ledge(
         from_x: f64,
@@ -1549,11 +1559,7 @@ mod tests {
         let mut bus = bus_before_a_ledge(8.0, false);
         let cfg = PlannerConfig::default();
         let prims = speleo_planner::primitives::generate(&Default::default());
-        let e = crate::config::ExplorationConfig::default();
-        let sim = speleo_simulator::InternalSim::new(Default::default())
-            .unwrap_or_else(|e| panic!("{e}"));
-        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0)
-            .with_simulator(sim, speleo_slam::lie::Pose::identity());
+        let mut ex = validating_exploration();
         let ground = |x: f64| if x < 10.0 { 0.17 } else { 0.17 + LEDGE_M };
         let steps = ((from_x - 8.0).abs() / 0.1) as u64;
         for k in 0..=steps {
@@ -1612,11 +1618,7 @@ mod tests {
         let mut bus = bus_in_a_corridor(ground, false, [9.7, 2.0, 0.17], &sensors);
         let cfg = PlannerConfig::default();
         let prims = speleo_planner::primitives::generate(&Default::default());
-        let e = crate::config::ExplorationConfig::default();
-        let sim = speleo_simulator::InternalSim::new(Default::default())
-            .unwrap_or_else(|e| panic!("{e}"));
-        let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0)
-            .with_simulator(sim, speleo_slam::lie::Pose::identity());
+        let mut ex = validating_exploration();
         ex.observe(&mut bus, 0);
         bus.command.publish(
             100_000_000,
