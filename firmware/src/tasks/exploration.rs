@@ -517,8 +517,7 @@ impl Exploration {
             let _ = msg.poses.push([x as f32, y as f32, z as f32, yaw as f32]);
         }
         if !validate {
-            self.executing = query;
-            self.counters.plans_executed += 1;
+            self.back_out_passed(query);
         }
         // No goal: a back-out stopped on its way rejects no candidate.
         bus.exploration.goal = None;
@@ -543,7 +542,7 @@ impl Exploration {
         !matches!(outcome, Outcome::TippedOver | Outcome::NoGround)
     }
 
-    /// The back-out shown, passed, is driven as plan `query`.
+    /// The back-out, passed or not validated, is driven as plan `query`.
     pub fn back_out_passed(&mut self, query: u64) {
         self.executing = query;
         self.counters.plans_executed += 1;

@@ -928,11 +928,7 @@ impl PlannerTask {
         if self.query.retrace && ex.backing_out() {
             let query = self.counters.queries;
             if Exploration::back_out_passes(v.outcome) {
-                if let Some(p) = bus.plan.get() {
-                    let mut msg = p.value.clone();
-                    msg.execute = true;
-                    bus.plan.publish(now, msg);
-                }
+                drive_shown_plan(bus, now);
                 ex.back_out_passed(query);
             } else {
                 tracing::debug!(outcome = ?v.outcome, "back-out refused");
@@ -944,11 +940,7 @@ impl PlannerTask {
         if self.query.retrace {
             let query = self.counters.queries;
             if v.success() {
-                if let Some(p) = bus.plan.get() {
-                    let mut msg = p.value.clone();
-                    msg.execute = true;
-                    bus.plan.publish(now, msg);
-                }
+                drive_shown_plan(bus, now);
                 ex.driving(query);
                 ex.compare_next(query);
             } else {
@@ -1095,6 +1087,16 @@ impl PlannerTask {
             Phase::Partial => self.drive_partial(bus, cx.time_ns),
         }
         true
+    }
+}
+
+/// The plan shown on the bus (a retrace or a back-out the simulation
+/// passed), marked to be driven.
+fn drive_shown_plan(bus: &mut Bus, now: u64) {
+    if let Some(p) = bus.plan.get() {
+        let mut msg = p.value.clone();
+        msg.execute = true;
+        bus.plan.publish(now, msg);
     }
 }
 
