@@ -497,6 +497,7 @@ pub fn run<C: FrameClock>(
         .collect();
     let ntasks = m.schedule.tasks().len();
     let mut exec = Executive::new(m.schedule, tasks, StdPlatform, clock, m.enforcement)?;
+    let io_task = exec.schedule().tasks().iter().position(|t| t.name == "io");
 
     let total = match m.length {
         Length::Frames(n) => Some(n),
@@ -541,7 +542,18 @@ pub fn run<C: FrameClock>(
         if let Some(s) = &worker_sync {
             s.wait_idle();
         }
-        let f = exec.run_frame(&mut bus);
+        // Once the io task has sent the commands and collected the inputs,
+        // nothing on board can change the world before the next frame: a
+        // simulated world computes that stretch beside the tasks (the
+        // LiDAR's rays on the second core).
+        let after = exec.clock().frame_time_ns(exec.next_frame() + 1);
+        let f = exec.run_frame_with(&mut bus, &mut |i| {
+            if Some(i) == io_task {
+                accounting::set_slot(accounting::WORLD);
+                hw.borrow_mut().look_ahead(after);
+                accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
+            }
+        });
         if bus.safe_mode_request && exec.mode() == Mode::Nominal {
             exec.enter_safe_mode();
         } else if bus.recovery_ready && exec.mode() == Mode::Safe {

@@ -125,6 +125,13 @@ pub trait Hardware {
     /// Simulated hardware integrates its physics here; real and replayed
     /// hardware have nothing to do.
     fn advance_to(&mut self, _now_ns: u64) {}
+    /// The commands for this frame have all been sent and its inputs
+    /// collected: nothing the software does can change the world before
+    /// `next_ns`, the next frame's start. Simulated hardware may compute
+    /// that stretch now, beside the frame's tasks, and must give exactly
+    /// what `advance_to(next_ns)` alone would. Inputs stay unseen until
+    /// polled after `advance_to`.
+    fn look_ahead(&mut self, _next_ns: u64) {}
     fn lidar(&mut self) -> &mut dyn LidarSource;
     fn imu(&mut self) -> &mut dyn ImuPort;
     fn can(&mut self) -> &mut dyn CanBus;

@@ -109,6 +109,14 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
 
     /// Run one minor frame: wait for it, then run every task due in it.
     pub fn run_frame(&mut self, bus: &mut B) -> FrameReport {
+        self.run_frame_with(bus, &mut |_| {})
+    }
+
+    /// [`Executive::run_frame`], calling `between(i)` after task `i` has
+    /// run. The time `between` takes is charged to no task: it is for the
+    /// outside world (a simulated rover moving on while the tasks run),
+    /// not for on-board work.
+    pub fn run_frame_with(&mut self, bus: &mut B, between: &mut dyn FnMut(usize)) -> FrameReport {
         if !self.started {
             self.clock.start();
             self.started = true;
@@ -125,9 +133,8 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
         };
         let mut tasks_run = 0;
         let mut overruns = 0;
-        // One clock reading per task: the end of one run is the start of the
-        // next, so the little bookkeeping between runs is charged to the next
-        // task (a slight over-estimate, never an under-estimate).
+        // The clock is read again after the bookkeeping of each run, so a
+        // task is charged for its own run and nothing else.
         let mut t0 = self.platform.now_ns();
         for i in 0..self.tasks.len() {
             let spec = &self.schedule.tasks()[i];
@@ -156,7 +163,6 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             }
             let t1 = self.platform.now_ns();
             let dt = t1.saturating_sub(t0);
-            t0 = t1;
             self.platform.enter(EXECUTIVE_SLOT);
             let run_bytes = self.platform.allocated_bytes(slot).saturating_sub(bytes0);
             st.alloc_bytes_max_run = st.alloc_bytes_max_run.max(run_bytes);
@@ -208,6 +214,8 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
                     task.set_degraded(false);
                 }
             }
+            between(i);
+            t0 = self.platform.now_ns();
         }
         self.next_frame = frame + 1;
         self.frames_run += 1;

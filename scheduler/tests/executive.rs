@@ -365,3 +365,35 @@ fn wrong_task_count_is_refused() {
     )
     .is_err());
 }
+
+#[test]
+fn work_between_tasks_is_charged_to_no_task() {
+    let platform = ScriptedPlatform::new();
+    platform.durations.set([50_000u64; 8]);
+    let mut bus = Bus::default();
+    let mut tasks = Tasks::new();
+    let mut exec = tasks.executive(&platform, Enforcement::Enforce);
+    let mut called = Vec::new();
+    for _ in 0..10 {
+        exec.run_frame_with(&mut bus, &mut |i| {
+            called.push(i);
+            // The outside world takes 20 ms after the producer: over every
+            // task's budget, but no task's time.
+            if i == 0 {
+                platform.now.set(platform.now.get() + 20_000_000);
+            }
+        });
+    }
+    let overruns: u64 = exec.stats().iter().map(|s| s.overruns).sum();
+    assert_eq!(overruns, 0);
+    assert_eq!(exec.mode(), Mode::Nominal);
+    // Called after each task that ran, in order: producer and motor every
+    // frame, the doubler every other frame, the countdown once in ten.
+    let runs: u64 = exec.stats().iter().map(|s| s.runs).sum();
+    assert_eq!(called.len() as u64, runs);
+    assert_eq!(called.iter().filter(|&&i| i == 0).count(), 10);
+    assert_eq!(called.iter().filter(|&&i| i == 1).count(), 5);
+    assert_eq!(called.iter().filter(|&&i| i == 2).count(), 1);
+    // Frame 0 runs the producer and the motor, frame 1 the doubler too.
+    assert_eq!(&called[..5], &[0, 3, 0, 1, 3]);
+}

@@ -125,6 +125,13 @@ impl<H: FaultTarget> Hardware for FaultyHardware<'_, H> {
         self.apply_drive_faults(now_ns);
         self.inner.advance_to(now_ns);
     }
+    fn look_ahead(&mut self, next_ns: u64) {
+        // A drive fault starts or ends at a frame's start, in `advance_to`:
+        // with any scheduled, the world must not move on before it.
+        if self.faults.iter().all(|f| !f.kind.needs_sim()) {
+            self.inner.look_ahead(next_ns);
+        }
+    }
     fn lidar(&mut self) -> &mut dyn LidarSource {
         self
     }

@@ -273,6 +273,8 @@ pub struct SimLidar {
     /// (sin, cos) of each laser's azimuth offset within a firing.
     offset: [(f64, f64); LASERS],
     outbox: Outbox<32, PACKET_LEN>,
+    /// The queued rays are being cast (`launch` without `finish`).
+    launched: bool,
     /// Returns beyond the 16-bit distance field.
     pub out_of_range: u64,
 }
@@ -305,11 +307,14 @@ impl SimLidar {
             azimuth: 0.0,
             step,
             outbox: Outbox::new(),
+            launched: false,
             out_of_range: 0,
         }
     }
 
     pub(crate) fn outbox(&mut self) -> &mut Outbox<32, PACKET_LEN> {
+        // Packets still being cast belong in it first.
+        self.finish();
         &mut self.outbox
     }
 
@@ -334,6 +339,8 @@ impl SimLidar {
     /// to `pose1`; `flush` casts their rays and queues their packets (once
     /// a frame, so that a batch is worth sharing between two cores).
     pub fn queue(&mut self, t0: u64, t1: u64, pose0: &SensorPose, pose1: &SensorPose) {
+        // The launched rays are still being cast: their packets come first.
+        self.finish();
         let span = (t1 - t0).max(1) as f64;
         while self.next_firing_ns < t1 {
             if self.firings.len() == QUEUED_FIRINGS {
@@ -382,11 +389,36 @@ impl SimLidar {
 
     /// Cast the queued firings' rays and queue their packets.
     pub fn flush(&mut self) {
+        self.launch();
+        self.finish();
+    }
+
+    /// Start casting the queued firings' rays on the helper thread; the
+    /// caller is free until `finish`. Firings queued after this wait for
+    /// the next launch.
+    pub fn launch(&mut self) {
+        if self.launched {
+            self.finish();
+        }
+        self.caster.submit(&self.rays, self.p.max_range_m);
+        self.launched = true;
+    }
+
+    /// Whether launched rays wait for `finish`.
+    pub fn launched(&self) -> bool {
+        self.launched
+    }
+
+    /// Finish casting the launched rays and queue their packets.
+    pub fn finish(&mut self) {
+        if !self.launched {
+            return;
+        }
+        self.launched = false;
         let n = self.rays.len();
         self.returns.clear();
         self.returns.resize(n, None);
-        self.caster
-            .cast(&self.rays, &mut self.returns, self.p.max_range_m);
+        self.caster.collect(&mut self.returns);
         let mut next = 0;
         for q in &self.firings {
             let mut firing = Firing {

@@ -171,7 +171,9 @@ impl SimHardware {
     /// The true state. For the ground-truth recording only: on-board tasks
     /// never see it.
     pub fn ground_truth(&self) -> GroundTruth {
-        self.motion.state(self.t_ns)
+        // The probe's state: the frame's start, even when the world has
+        // looked ahead.
+        self.truth.get()
     }
 
     /// Times the chassis has struck the world (walls, ceiling, a boulder's
@@ -203,9 +205,11 @@ impl SimHardware {
     }
 }
 
-impl Hardware for SimHardware {
-    fn advance_to(&mut self, now_ns: u64) {
-        while self.t_ns + STEP_NS <= now_ns {
+impl SimHardware {
+    /// Step the rover and its devices through every physics step that ends
+    /// by `until_ns`, aiming the LiDAR's firings on the way.
+    fn step_to(&mut self, until_ns: u64) {
+        while self.t_ns + STEP_NS <= until_ns {
             self.drives.tick(self.t_ns);
             let targets = self.drives.wheel_targets(self.t_ns);
             let before = self.motion.state(self.t_ns);
@@ -222,11 +226,26 @@ impl Hardware for SimHardware {
             self.imu.observe(&after);
             self.imu.maybe_sample(self.t_ns, &after);
         }
-        // The frame's rays in one batch, on two cores.
+    }
+}
+
+impl Hardware for SimHardware {
+    fn advance_to(&mut self, now_ns: u64) {
+        self.step_to(now_ns);
+        // The frame's rays in one batch, on two cores; those launched by
+        // `look_ahead` have been cast meanwhile.
         if let LidarTwin::On(l) = &mut self.lidar {
             l.flush();
         }
         self.truth.set(self.motion.state(self.t_ns));
+    }
+    fn look_ahead(&mut self, next_ns: u64) {
+        // The truth probe keeps the frame's start: it moves on at
+        // `advance_to`, with everything the rover's software can see.
+        self.step_to(next_ns);
+        if let LidarTwin::On(l) = &mut self.lidar {
+            l.launch();
+        }
     }
     fn lidar(&mut self) -> &mut dyn LidarSource {
         &mut self.lidar
