@@ -23,7 +23,7 @@ use parry3d::shape::{CompositeShapeRef, TriMesh};
 
 use super::noise::Noise;
 use super::quat::{self, Quat};
-use super::ray_caster::{QueuedRay, RayCaster, RayReturn};
+use super::ray_caster::{Aim, Head, RayCaster};
 use crate::hdl32e::encode::{Firing, PacketEncoder};
 use crate::hdl32e::{Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS, PACKET_LEN};
 use crate::outbox::Outbox;
@@ -257,21 +257,15 @@ pub struct SimLidar {
     p: LidarParams,
     encoder: PacketEncoder,
     caster: RayCaster,
-    /// Firings and the rays of their live lasers, in order, until `flush`.
+    /// Firings and where their lasers point, in order, until `flush`.
     firings: Vec<QueuedFiring>,
-    rays: Vec<QueuedRay>,
-    returns: Vec<RayReturn>,
+    aims: Vec<Aim>,
     noise: Noise,
-    /// Unit direction of each laser in the sensor frame at azimuth 0, as
-    /// (cos elevation, sin elevation).
-    elevation: [(f64, f64); LASERS],
     next_firing_ns: u64,
     /// Azimuth of the next firing, hundredths of a degree (continuous).
     azimuth: f64,
     /// Azimuth advance per firing, hundredths.
     step: f64,
-    /// (sin, cos) of each laser's azimuth offset within a firing.
-    offset: [(f64, f64); LASERS],
     outbox: Outbox<32, PACKET_LEN>,
     /// The queued rays are being cast (`launch` without `finish`).
     launched: bool,
@@ -292,17 +286,14 @@ impl SimLidar {
                 * (core::f64::consts::PI / 18000.0);
             (libm::sin(d), libm::cos(d))
         });
-        let rays = QUEUED_FIRINGS * LASERS;
+        let head = Head { elevation, offset };
         SimLidar {
-            offset,
-            caster: RayCaster::new(world, rays, p.cast_threads),
+            caster: RayCaster::new(world, head, QUEUED_FIRINGS, p.cast_threads),
             p,
             firings: Vec::with_capacity(QUEUED_FIRINGS),
-            rays: Vec::with_capacity(rays),
-            returns: Vec::with_capacity(rays),
+            aims: Vec::with_capacity(QUEUED_FIRINGS),
             encoder: PacketEncoder::new(cal),
             noise: Noise::new(seed, 0x1_1DA2),
-            elevation,
             next_firing_ns: 0,
             azimuth: 0.0,
             step,
@@ -361,26 +352,21 @@ impl SimLidar {
             let r = mid.matrix();
             let (pa, pb) = (pose0.lerp(pose1, fa).p, pose0.lerp(pose1, fb).p);
             let az0 = self.azimuth * (core::f64::consts::PI / 18000.0);
-            let (s0, c0) = (libm::sin(az0), libm::cos(az0));
             for l in 0..LASERS {
                 if self.noise.uniform() < self.p.dropout {
                     continue;
                 }
                 firing.live |= 1 << l;
                 firing.noise[l] = self.noise.gaussian() as f32;
-                let u = l as f64 / LASERS as f64;
-                let origin = [
-                    pa[0] + (pb[0] - pa[0]) * u,
-                    pa[1] + (pb[1] - pa[1]) * u,
-                    pa[2] + (pb[2] - pa[2]) * u,
-                ];
-                // Azimuth of this laser (clockwise from x, as the sensor counts).
-                let (so, co) = self.offset[l];
-                let (sa, ca) = (s0 * co + c0 * so, c0 * co - s0 * so);
-                let (ce, se) = self.elevation[l];
-                let dir = quat::mat_mul(&r, [ce * ca, -ce * sa, se]);
-                self.rays.push(QueuedRay { origin, dir });
             }
+            // The caster aims each live laser from these.
+            self.aims.push(Aim {
+                live: firing.live,
+                start: pa,
+                end: pb,
+                rotation: r,
+                azimuth: (libm::sin(az0), libm::cos(az0)),
+            });
             self.firings.push(firing);
             self.azimuth = (self.azimuth + self.step) % 36000.0;
             self.next_firing_ns += BLOCK_PERIOD_NS as u64;
@@ -400,7 +386,7 @@ impl SimLidar {
         if self.launched {
             self.finish();
         }
-        self.caster.submit(&self.rays, self.p.max_range_m);
+        self.caster.submit(&self.aims, self.p.max_range_m);
         self.launched = true;
     }
 
@@ -415,25 +401,26 @@ impl SimLidar {
             return;
         }
         self.launched = false;
-        let n = self.rays.len();
-        self.returns.clear();
-        self.returns.resize(n, None);
-        self.caster.collect(&mut self.returns);
-        let mut next = 0;
-        for q in &self.firings {
+        let SimLidar {
+            p,
+            encoder,
+            caster,
+            firings,
+            outbox,
+            ..
+        } = self;
+        caster.collect(|k, returns| {
+            let Some(q) = firings.get(k) else {
+                return;
+            };
             let mut firing = Firing {
                 azimuth: q.azimuth,
                 distance_m: [0.0; LASERS],
                 intensity: [0; LASERS],
             };
-            for l in 0..LASERS {
-                if q.live & (1 << l) == 0 {
-                    continue;
-                }
-                let hit = self.returns.get(next).copied().flatten();
-                next += 1;
-                if let Some((d, cos, s)) = hit {
-                    let noisy = d + q.noise[l] as f64 * self.p.range_noise_m;
+            for (l, hit) in returns.iter().enumerate() {
+                if let Some((d, cos, s)) = *hit {
+                    let noisy = d + q.noise[l] as f64 * p.range_noise_m;
                     if noisy > 0.0 {
                         firing.distance_m[l] = noisy as f32;
                         firing.intensity[l] = intensity(s, cos);
@@ -442,14 +429,13 @@ impl SimLidar {
             }
             // Microseconds past the hour of this firing.
             let stamp = ((q.t_ns / 1000) % 3_600_000_000) as u32;
-            if let Some(packet) = self.encoder.push(&firing, stamp) {
-                self.outbox
-                    .push(q.t_ns + BLOCK_PERIOD_NS as u64 + self.p.latency_ns, &packet);
+            if let Some(packet) = encoder.push(&firing, stamp) {
+                outbox.push(q.t_ns + BLOCK_PERIOD_NS as u64 + p.latency_ns, &packet);
             }
-        }
+        });
         self.out_of_range = self.encoder.out_of_range;
         self.firings.clear();
-        self.rays.clear();
+        self.aims.clear();
     }
 }
 

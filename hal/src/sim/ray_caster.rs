@@ -1,19 +1,21 @@
-//! Casts batches of the LiDAR twin's rays, on a helper thread while the
+//! Aims and casts the LiDAR twin's firings, on a helper thread while the
 //! rover's software runs and on the calling thread when it comes back.
 //!
-//! The rays of a batch are independent, so which thread casts which ray
-//! changes nothing in the result: the packets are the same bytes with one
-//! thread or two. Casting is most of what the simulated world costs (the
-//! HDL-32E's ~580,000 rays a simulated second), and on the rover that work
-//! is the sensor's own, not the computer's, so the simulation spends the
-//! second core on it.
+//! The rays are independent, so which thread casts which changes nothing
+//! in the result: the packets are the same bytes with one thread or two.
+//! Casting is most of what the simulated world costs (the HDL-32E's
+//! ~580,000 rays a simulated second), and on the rover that work is the
+//! sensor's own, not the computer's, so the simulation spends the second
+//! core on it.
 //!
-//! A batch is cut into chunks that either thread claims in turn: `submit`
-//! hands the batch to the helper and returns at once, `collect` casts the
-//! chunks nobody has claimed yet, waits for the helper's last one and hands
-//! the returns over. Between the two the calling thread is free for other
-//! work. The helper thread lives as long as the caster; batches, chunks
-//! and signals are made at start-up, so nothing allocates per batch.
+//! A batch of firings is cut into chunks that either thread claims in
+//! turn, and a chunk's rays are aimed where they are cast, from the
+//! firing's pose: `submit` hands the batch to the helper and returns at
+//! once, `collect` casts the chunks nobody has claimed yet, waits for the
+//! helper's last one and hands each firing's returns over in order.
+//! Between the two the calling thread is free for other work. The helper
+//! lives as long as the caster; chunks and signals are made at start-up,
+//! so nothing allocates per batch.
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
@@ -21,32 +23,63 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 
 use super::lidar::LidarWorld;
+use super::quat;
+use crate::hdl32e::LASERS;
 use crate::world::Surface;
-
-/// A ray to cast: origin and unit direction in the world.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct QueuedRay {
-    pub origin: [f64; 3],
-    pub dir: [f64; 3],
-}
 
 /// What a ray met: distance, cosine of the incidence angle and surface.
 pub type RayReturn = Option<(f64, f64, Surface)>;
 
-/// Rays a thread claims at a time: small enough that the two threads end
-/// together, large enough that claiming costs nothing next to casting.
-const CHUNK_RAYS: usize = 256;
+/// Where one firing's lasers point: the lasers that fire, the sensor's
+/// position at the first and after the last laser, its orientation
+/// (sensor to world) and the head's azimuth as (sin, cos).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Aim {
+    pub live: u32,
+    pub start: [f64; 3],
+    pub end: [f64; 3],
+    pub rotation: [[f64; 3]; 3],
+    pub azimuth: (f64, f64),
+}
 
-/// One chunk's rays and what they met.
+/// The head's fixed geometry: each laser's elevation as (cos, sin) and its
+/// azimuth offset within a firing as (sin, cos).
+#[derive(Clone, Copy, Debug)]
+pub struct Head {
+    pub elevation: [(f64, f64); LASERS],
+    pub offset: [(f64, f64); LASERS],
+}
+
+impl Head {
+    /// Origin and unit direction in the world of laser `l` of a firing.
+    pub fn ray(&self, a: &Aim, l: usize) -> ([f64; 3], [f64; 3]) {
+        let u = l as f64 / LASERS as f64;
+        let origin = core::array::from_fn(|k| a.start[k] + (a.end[k] - a.start[k]) * u);
+        // Azimuth of this laser (clockwise from x, as the sensor counts).
+        let (s0, c0) = a.azimuth;
+        let (so, co) = self.offset[l];
+        let (sa, ca) = (s0 * co + c0 * so, c0 * co - s0 * so);
+        let (ce, se) = self.elevation[l];
+        (origin, quat::mat_mul(&a.rotation, [ce * ca, -ce * sa, se]))
+    }
+}
+
+/// Firings a thread claims at a time (~250 rays): small enough that the
+/// two threads end together, large enough that claiming costs nothing
+/// next to casting.
+const CHUNK_FIRINGS: usize = 8;
+
+/// One chunk's firings and what their lasers met.
 #[derive(Default)]
 struct Chunk {
-    rays: Vec<QueuedRay>,
-    returns: Vec<RayReturn>,
+    aims: Vec<Aim>,
+    returns: Vec<[RayReturn; LASERS]>,
 }
 
 /// The batch both threads work on.
 struct Batch {
     world: Arc<LidarWorld>,
+    head: Head,
     chunks: Vec<Mutex<Chunk>>,
     /// Chunks in the current batch.
     count: AtomicUsize,
@@ -57,7 +90,7 @@ struct Batch {
 }
 
 impl Batch {
-    /// Claim and cast chunks until none is left.
+    /// Claim, aim and cast chunks until none is left.
     fn work(&self) {
         let count = self.count.load(Ordering::Acquire);
         let max_m = f64::from_bits(self.max_m.load(Ordering::Acquire));
@@ -67,9 +100,18 @@ impl Batch {
                 return;
             };
             let mut c = chunk.lock().unwrap_or_else(PoisonError::into_inner);
-            let Chunk { rays, returns } = &mut *c;
+            let Chunk { aims, returns } = &mut *c;
             returns.clear();
-            returns.extend(rays.iter().map(|r| self.world.cast(r.origin, r.dir, max_m)));
+            for a in aims.iter() {
+                let mut out = [None; LASERS];
+                for (l, o) in out.iter_mut().enumerate() {
+                    if a.live & (1 << l) != 0 {
+                        let (origin, dir) = self.head.ray(a, l);
+                        *o = self.world.cast(origin, dir, max_m);
+                    }
+                }
+                returns.push(out);
+            }
         }
     }
 }
@@ -85,22 +127,24 @@ pub struct RayCaster {
     helper: Option<Helper>,
     /// A batch has been submitted and not collected.
     in_flight: bool,
-    /// Rays in the submitted batch.
-    rays: usize,
+    /// Firings in the submitted batch.
+    firings: usize,
 }
 
 impl RayCaster {
-    /// A caster for batches of up to `capacity` rays, with a helper thread
-    /// when `threads` is 2 or more (and the thread can be started).
-    pub fn new(world: Arc<LidarWorld>, capacity: usize, threads: usize) -> Self {
-        let chunks = capacity.div_ceil(CHUNK_RAYS).max(1);
+    /// A caster for batches of up to `capacity` firings of `head`, with a
+    /// helper thread when `threads` is 2 or more (and the thread can be
+    /// started).
+    pub fn new(world: Arc<LidarWorld>, head: Head, capacity: usize, threads: usize) -> Self {
+        let chunks = capacity.div_ceil(CHUNK_FIRINGS).max(1);
         let batch = Arc::new(Batch {
             world,
+            head,
             chunks: (0..chunks)
                 .map(|_| {
                     Mutex::new(Chunk {
-                        rays: Vec::with_capacity(CHUNK_RAYS),
-                        returns: Vec::with_capacity(CHUNK_RAYS),
+                        aims: Vec::with_capacity(CHUNK_FIRINGS),
+                        returns: Vec::with_capacity(CHUNK_FIRINGS),
                     })
                 })
                 .collect(),
@@ -115,7 +159,7 @@ impl RayCaster {
             batch,
             helper,
             in_flight: false,
-            rays: 0,
+            firings: 0,
         }
     }
 
@@ -145,33 +189,37 @@ impl RayCaster {
         self.helper.is_some()
     }
 
-    /// Rays a batch can hold.
+    /// Firings a batch can hold.
     pub fn capacity(&self) -> usize {
-        self.batch.chunks.len() * CHUNK_RAYS
+        self.batch.chunks.len() * CHUNK_FIRINGS
     }
 
-    /// Start casting `rays` (at most `capacity`; the rest are not cast)
-    /// within `max_m`; `collect` hands the returns over. A batch still in
-    /// flight is collected and dropped first.
-    pub fn submit(&mut self, rays: &[QueuedRay], max_m: f64) {
+    /// The helper is woken for batches of at least two chunks.
+    fn worth_sharing(firings: usize) -> bool {
+        firings >= 2 * CHUNK_FIRINGS
+    }
+
+    /// Start casting the lasers of `aims` (at most `capacity` firings; the
+    /// rest are not cast) within `max_m`; `collect` hands the returns
+    /// over. A batch still in flight is collected and dropped first.
+    pub fn submit(&mut self, aims: &[Aim], max_m: f64) {
         if self.in_flight {
-            self.collect(&mut []);
+            self.collect(|_, _| {});
         }
-        let rays = &rays[..rays.len().min(self.capacity())];
-        for (chunk, part) in self.batch.chunks.iter().zip(rays.chunks(CHUNK_RAYS)) {
+        let aims = &aims[..aims.len().min(self.capacity())];
+        for (chunk, part) in self.batch.chunks.iter().zip(aims.chunks(CHUNK_FIRINGS)) {
             let mut c = chunk.lock().unwrap_or_else(PoisonError::into_inner);
-            c.rays.clear();
-            c.rays.extend_from_slice(part);
+            c.aims.clear();
+            c.aims.extend_from_slice(part);
         }
         let b = &self.batch;
         b.max_m.store(max_m.to_bits(), Ordering::Release);
         b.next.store(0, Ordering::Release);
         b.count
-            .store(rays.len().div_ceil(CHUNK_RAYS), Ordering::Release);
-        self.rays = rays.len();
+            .store(aims.len().div_ceil(CHUNK_FIRINGS), Ordering::Release);
+        self.firings = aims.len();
         self.in_flight = true;
-        // Small batches are not worth waking the helper for.
-        if rays.len() >= 2 * CHUNK_RAYS {
+        if Self::worth_sharing(aims.len()) {
             if let Some(h) = &self.helper {
                 if h.go.send(()).is_err() {
                     // The helper is gone: cast everything here from now on.
@@ -181,15 +229,16 @@ impl RayCaster {
         }
     }
 
-    /// Finish the submitted batch and copy its returns into `returns` (as
-    /// many as both hold). Without a submitted batch nothing is copied.
-    pub fn collect(&mut self, returns: &mut [RayReturn]) {
+    /// Finish the submitted batch and hand each firing's returns (indexed
+    /// by laser; none for a laser that did not fire) to `each`, in order.
+    /// Without a submitted batch nothing is handed over.
+    pub fn collect(&mut self, mut each: impl FnMut(usize, &[RayReturn; LASERS])) {
         if !self.in_flight {
             return;
         }
         self.in_flight = false;
         self.batch.work();
-        if self.rays >= 2 * CHUNK_RAYS {
+        if Self::worth_sharing(self.firings) {
             if let Some(h) = &self.helper {
                 if h.done.recv().is_err() {
                     // The helper died mid-batch: cast its chunks again here.
@@ -199,19 +248,15 @@ impl RayCaster {
                 }
             }
         }
-        let chunks = self.batch.chunks.iter();
-        let n = returns.len().min(self.rays);
-        for (chunk, out) in chunks.zip(returns[..n].chunks_mut(CHUNK_RAYS)) {
+        let count = self.firings.div_ceil(CHUNK_FIRINGS);
+        let mut k = 0;
+        for chunk in &self.batch.chunks[..count] {
             let c = chunk.lock().unwrap_or_else(PoisonError::into_inner);
-            out.copy_from_slice(&c.returns[..out.len()]);
+            for r in &c.returns {
+                each(k, r);
+                k += 1;
+            }
         }
-    }
-
-    /// Cast every ray of `rays` within `max_m` into `returns` (same length).
-    pub fn cast(&mut self, rays: &[QueuedRay], returns: &mut [RayReturn], max_m: f64) {
-        let n = rays.len().min(returns.len());
-        self.submit(&rays[..n], max_m);
-        self.collect(&mut returns[..n]);
     }
 }
 
@@ -225,77 +270,97 @@ impl Drop for Helper {
         }
     }
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::world::World;
 
-    #[test]
-    fn two_threads_return_what_one_returns() {
+    /// Firings from the tube's start, the head turning 0.63 deg a firing
+    /// and pitched down a little, every laser live but one in seven.
+    fn firings(n: usize) -> (World, Head, Vec<Aim>) {
         let w = World::build("lava-tube", 1).expect("tube");
-        let lw = Arc::new(LidarWorld::new(&w.mesh).expect("mesh"));
         let o = [w.start[0], w.start[1], w.start[2] + 0.7];
-        let rays: Vec<QueuedRay> = (0..1000)
+        let head = Head {
+            elevation: core::array::from_fn(|l| {
+                let e = (-30.67f64 + 4.0 / 3.0 * l as f64).to_radians();
+                (e.cos(), e.sin())
+            }),
+            offset: [(0.0, 1.0); LASERS],
+        };
+        let aims = (0..n)
             .map(|i| {
-                let a = i as f64 * 0.0063;
-                let e = (i % 32) as f64 * 0.02 - 0.5;
-                QueuedRay {
-                    origin: o,
-                    dir: [e.cos() * a.cos(), e.cos() * a.sin(), e.sin()],
+                let a = i as f64 * 0.011;
+                Aim {
+                    live: !(1u32 << (i % 7)),
+                    start: o,
+                    end: [o[0] + 0.001, o[1], o[2]],
+                    rotation: quat::matrix(&quat::from_ypr(0.0, 0.1, 0.0)),
+                    azimuth: (a.sin(), a.cos()),
                 }
             })
             .collect();
-        let mut one = RayCaster::new(lw.clone(), 1000, 1);
-        let mut two = RayCaster::new(lw, 1000, 2);
+        (w, head, aims)
+    }
+
+    fn all(c: &mut RayCaster) -> Vec<[RayReturn; LASERS]> {
+        let mut out = Vec::new();
+        c.collect(|k, r| {
+            assert_eq!(k, out.len());
+            out.push(*r);
+        });
+        out
+    }
+
+    #[test]
+    fn two_threads_return_what_one_returns() {
+        let (w, head, aims) = firings(100);
+        let lw = Arc::new(LidarWorld::new(&w.mesh).expect("mesh"));
+        let mut one = RayCaster::new(lw.clone(), head, 100, 1);
+        let mut two = RayCaster::new(lw, head, 100, 2);
         assert!(!one.shared());
         assert!(two.shared());
-        let (mut a, mut b) = (vec![None; 1000], vec![None; 1000]);
-        one.cast(&rays, &mut a, 70.0);
-        // Twice: the share comes home and goes out again.
-        two.cast(&rays, &mut b, 70.0);
-        assert_eq!(a, b);
-        b.fill(None);
-        two.cast(&rays, &mut b, 70.0);
-        assert_eq!(a, b);
-        assert!(a.iter().filter(|r| r.is_some()).count() > 900);
+        one.submit(&aims, 70.0);
+        let a = all(&mut one);
+        // Twice: the helper goes back to waiting between batches.
+        for _ in 0..2 {
+            two.submit(&aims, 70.0);
+            assert_eq!(a, all(&mut two));
+        }
+        let hits = a.iter().flatten().filter(|r| r.is_some()).count();
+        assert!(hits > 2500, "{hits} of 3,200 rays hit");
+        // A laser that does not fire returns nothing.
+        assert!(a[3][3].is_none());
+        // Each ray is the one the head aims.
+        let (origin, dir) = head.ray(&aims[5], 9);
+        assert_eq!(a[5][9], lw_cast(&w, origin, dir));
+    }
+
+    fn lw_cast(w: &World, origin: [f64; 3], dir: [f64; 3]) -> RayReturn {
+        LidarWorld::new(&w.mesh)
+            .expect("mesh")
+            .cast(origin, dir, 70.0)
     }
 
     #[test]
     fn a_submitted_batch_is_collected_whole_after_other_work() {
-        let w = World::build("lava-tube", 1).expect("tube");
+        let (w, head, aims) = firings(200);
         let lw = Arc::new(LidarWorld::new(&w.mesh).expect("mesh"));
-        let o = [w.start[0], w.start[1], w.start[2] + 0.7];
-        let rays: Vec<QueuedRay> = (0..3000)
-            .map(|i| {
-                let a = i as f64 * 0.0021;
-                QueuedRay {
-                    origin: o,
-                    dir: [a.cos() * 0.9, a.sin() * 0.9, -0.43589],
-                }
-            })
-            .collect();
-        let mut one = RayCaster::new(lw.clone(), 3000, 1);
-        let mut two = RayCaster::new(lw, 3000, 2);
-        let mut a = vec![None; 3000];
-        one.cast(&rays, &mut a, 70.0);
-        for n in [3000, 100, 0] {
-            two.submit(&rays[..n], 70.0);
+        let mut one = RayCaster::new(lw.clone(), head, 200, 1);
+        one.submit(&aims, 70.0);
+        let a = all(&mut one);
+        let mut two = RayCaster::new(lw.clone(), head, 200, 2);
+        for n in [200, 10, 0] {
+            two.submit(&aims[..n], 70.0);
             // The calling thread is free meanwhile.
             std::hint::black_box((0..10_000).sum::<u64>());
-            let mut b = vec![None; 3000];
-            two.collect(&mut b);
-            assert_eq!(&a[..n], &b[..n], "{n} rays");
-            assert!(b[n..].iter().all(Option::is_none), "{n} rays");
+            assert_eq!(&a[..n], &all(&mut two)[..], "{n} firings");
         }
-        // Nothing submitted, nothing copied.
-        let mut c = vec![None; 10];
-        two.collect(&mut c);
-        assert!(c.iter().all(Option::is_none));
-        // Rays past the capacity are not cast.
-        let mut small = RayCaster::new(Arc::new(LidarWorld::new(&w.mesh).expect("mesh")), 256, 2);
-        let mut d = vec![None; 3000];
-        small.cast(&rays, &mut d, 70.0);
-        assert_eq!(&a[..small.capacity()], &d[..small.capacity()]);
-        assert!(d[small.capacity()..].iter().all(Option::is_none));
+        // Nothing submitted, nothing handed over.
+        assert!(all(&mut two).is_empty());
+        // Firings past the capacity are not cast.
+        let mut small = RayCaster::new(lw, head, 16, 2);
+        small.submit(&aims, 70.0);
+        assert_eq!(&a[..small.capacity()], &all(&mut small)[..]);
     }
 }
