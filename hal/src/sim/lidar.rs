@@ -327,11 +327,17 @@ impl SimLidar {
     }
 
     /// Aim every firing due in [t0, t1) while the sensor moves from `pose0`
-    /// to `pose1`; `flush` casts their rays and queues their packets (once
-    /// a frame, so that a batch is worth sharing between two cores).
+    /// to `pose1`. Each full chunk of firings goes to the helper thread at
+    /// once; `flush` casts the rest and queues the packets (once a frame).
     pub fn queue(&mut self, t0: u64, t1: u64, pose0: &SensorPose, pose1: &SensorPose) {
         // The launched rays are still being cast: their packets come first.
         self.finish();
+        self.aim_firings(t0, t1, pose0, pose1);
+        // The helper starts on each full chunk while the physics steps on.
+        self.caster.publish(&self.aims, self.p.max_range_m, false);
+    }
+
+    fn aim_firings(&mut self, t0: u64, t1: u64, pose0: &SensorPose, pose1: &SensorPose) {
         let span = (t1 - t0).max(1) as f64;
         while self.next_firing_ns < t1 {
             if self.firings.len() == QUEUED_FIRINGS {
@@ -379,14 +385,11 @@ impl SimLidar {
         self.finish();
     }
 
-    /// Start casting the queued firings' rays on the helper thread; the
-    /// caller is free until `finish`. Firings queued after this wait for
-    /// the next launch.
+    /// Start casting the rest of the queued firings' rays on the helper
+    /// thread; the caller is free until `finish`. Firings queued after
+    /// this wait for the next launch.
     pub fn launch(&mut self) {
-        if self.launched {
-            self.finish();
-        }
-        self.caster.submit(&self.aims, self.p.max_range_m);
+        self.caster.publish(&self.aims, self.p.max_range_m, true);
         self.launched = true;
     }
 

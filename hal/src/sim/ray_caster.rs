@@ -10,8 +10,9 @@
 //!
 //! A batch of firings is cut into chunks that either thread claims in
 //! turn, and a chunk's rays are aimed where they are cast, from the
-//! firing's pose: `submit` hands the batch to the helper and returns at
-//! once, `collect` casts the chunks nobody has claimed yet, waits for the
+//! firing's pose. `publish` hands the helper each chunk as soon as its
+//! firings are aimed (while the physics steps on), and returns at once;
+//! `collect` casts the chunks nobody has claimed yet, waits for the
 //! helper's last one and hands each firing's returns over in order.
 //! Between the two the calling thread is free for other work. The helper
 //! lives as long as the caster; chunks and signals are made at start-up,
@@ -81,8 +82,8 @@ struct Batch {
     world: Arc<LidarWorld>,
     head: Head,
     chunks: Vec<Mutex<Chunk>>,
-    /// Chunks in the current batch.
-    count: AtomicUsize,
+    /// Chunks of the current batch ready to claim.
+    published: AtomicUsize,
     /// The next chunk to claim.
     next: AtomicUsize,
     /// Range limit of the current batch, as f64 bits.
@@ -90,13 +91,28 @@ struct Batch {
 }
 
 impl Batch {
-    /// Claim, aim and cast chunks until none is left.
-    fn work(&self) {
-        let count = self.count.load(Ordering::Acquire);
-        let max_m = f64::from_bits(self.max_m.load(Ordering::Acquire));
+    /// The next published chunk nobody has claimed, claimed.
+    fn claim(&self) -> Option<usize> {
+        let mut i = self.next.load(Ordering::Acquire);
         loop {
-            let i = self.next.fetch_add(1, Ordering::AcqRel);
-            let Some(chunk) = self.chunks.get(i).filter(|_| i < count) else {
+            if i >= self.published.load(Ordering::Acquire) {
+                return None;
+            }
+            match self
+                .next
+                .compare_exchange(i, i + 1, Ordering::AcqRel, Ordering::Acquire)
+            {
+                Ok(_) => return Some(i),
+                Err(now) => i = now,
+            }
+        }
+    }
+
+    /// Claim, aim and cast published chunks until none is left.
+    fn work(&self) {
+        let max_m = f64::from_bits(self.max_m.load(Ordering::Acquire));
+        while let Some(i) = self.claim() {
+            let Some(chunk) = self.chunks.get(i) else {
                 return;
             };
             let mut c = chunk.lock().unwrap_or_else(PoisonError::into_inner);
@@ -116,8 +132,17 @@ impl Batch {
     }
 }
 
+/// What the helper is told.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Signal {
+    /// More chunks are published.
+    More,
+    /// The batch is complete: say when your last chunk is cast.
+    Seal,
+}
+
 struct Helper {
-    go: SyncSender<()>,
+    go: SyncSender<Signal>,
     done: Receiver<()>,
     thread: Option<JoinHandle<()>>,
 }
@@ -125,10 +150,12 @@ struct Helper {
 pub struct RayCaster {
     batch: Arc<Batch>,
     helper: Option<Helper>,
-    /// A batch has been submitted and not collected.
+    /// A batch has been published and not collected.
     in_flight: bool,
-    /// Firings in the submitted batch.
+    /// Firings published in the current batch.
     firings: usize,
+    /// The helper was told of the current batch.
+    told: bool,
 }
 
 impl RayCaster {
@@ -148,7 +175,7 @@ impl RayCaster {
                     })
                 })
                 .collect(),
-            count: AtomicUsize::new(0),
+            published: AtomicUsize::new(0),
             next: AtomicUsize::new(0),
             max_m: AtomicU64::new(0),
         });
@@ -160,18 +187,20 @@ impl RayCaster {
             helper,
             in_flight: false,
             firings: 0,
+            told: false,
         }
     }
 
     fn start_helper(batch: Arc<Batch>) -> Option<Helper> {
-        let (go, inbox) = sync_channel::<()>(1);
+        // Room for every chunk's signal and the seal of a batch.
+        let (go, inbox) = sync_channel::<Signal>(batch.chunks.len() + 1);
         let (outbox, done) = sync_channel::<()>(1);
         let thread = std::thread::Builder::new()
             .name("speleo-lidar".into())
             .spawn(move || {
-                while inbox.recv().is_ok() {
+                while let Ok(signal) = inbox.recv() {
                     batch.work();
-                    if outbox.send(()).is_err() {
+                    if signal == Signal::Seal && outbox.send(()).is_err() {
                         break;
                     }
                 }
@@ -194,51 +223,74 @@ impl RayCaster {
         self.batch.chunks.len() * CHUNK_FIRINGS
     }
 
-    /// The helper is woken for batches of at least two chunks.
-    fn worth_sharing(firings: usize) -> bool {
-        firings >= 2 * CHUNK_FIRINGS
-    }
-
-    /// Start casting the lasers of `aims` (at most `capacity` firings; the
-    /// rest are not cast) within `max_m`; `collect` hands the returns
-    /// over. A batch still in flight is collected and dropped first.
-    pub fn submit(&mut self, aims: &[Aim], max_m: f64) {
-        if self.in_flight {
-            self.collect(|_, _| {});
-        }
+    /// Publish the chunks of `aims` (every firing of the current batch so
+    /// far, in order; at most `capacity`, the rest are not cast) that are
+    /// full, and with `whole` the last one too: no firing may be added to
+    /// the batch after that. Rays are cast within `max_m` (the first
+    /// publish of a batch sets it). The helper starts on them at once.
+    pub fn publish(&mut self, aims: &[Aim], max_m: f64, whole: bool) {
         let aims = &aims[..aims.len().min(self.capacity())];
-        for (chunk, part) in self.batch.chunks.iter().zip(aims.chunks(CHUNK_FIRINGS)) {
-            let mut c = chunk.lock().unwrap_or_else(PoisonError::into_inner);
-            c.aims.clear();
-            c.aims.extend_from_slice(part);
-        }
         let b = &self.batch;
-        b.max_m.store(max_m.to_bits(), Ordering::Release);
-        b.next.store(0, Ordering::Release);
-        b.count
-            .store(aims.len().div_ceil(CHUNK_FIRINGS), Ordering::Release);
-        self.firings = aims.len();
-        self.in_flight = true;
-        if Self::worth_sharing(aims.len()) {
-            if let Some(h) = &self.helper {
-                if h.go.send(()).is_err() {
-                    // The helper is gone: cast everything here from now on.
-                    self.helper = None;
-                }
+        if !self.in_flight {
+            b.max_m.store(max_m.to_bits(), Ordering::Release);
+            b.next.store(0, Ordering::Release);
+            b.published.store(0, Ordering::Release);
+            self.firings = 0;
+            self.in_flight = true;
+            self.told = false;
+        }
+        let ready = if whole {
+            aims.len().div_ceil(CHUNK_FIRINGS)
+        } else {
+            aims.len() / CHUNK_FIRINGS
+        };
+        let from = b.published.load(Ordering::Acquire);
+        if ready <= from {
+            return;
+        }
+        for c in from..ready {
+            let part = &aims[c * CHUNK_FIRINGS..((c + 1) * CHUNK_FIRINGS).min(aims.len())];
+            let mut chunk = b.chunks[c].lock().unwrap_or_else(PoisonError::into_inner);
+            chunk.aims.clear();
+            chunk.aims.extend_from_slice(part);
+            chunk.returns.clear();
+        }
+        b.published.store(ready, Ordering::Release);
+        self.firings = (ready * CHUNK_FIRINGS).min(aims.len());
+        if let Some(h) = &self.helper {
+            if h.go.send(Signal::More).is_ok() {
+                self.told = true;
+            } else {
+                // The helper is gone: cast everything here from now on.
+                self.helper = None;
             }
         }
     }
 
-    /// Finish the submitted batch and hand each firing's returns (indexed
+    /// Publish all of `aims` as one batch (see `publish`).
+    pub fn submit(&mut self, aims: &[Aim], max_m: f64) {
+        if self.in_flight {
+            self.collect(|_, _| {});
+        }
+        self.publish(aims, max_m, true);
+    }
+
+    /// Finish the published batch and hand each firing's returns (indexed
     /// by laser; none for a laser that did not fire) to `each`, in order.
-    /// Without a submitted batch nothing is handed over.
+    /// Without a published batch nothing is handed over.
     pub fn collect(&mut self, mut each: impl FnMut(usize, &[RayReturn; LASERS])) {
         if !self.in_flight {
             return;
         }
         self.in_flight = false;
+        let told = std::mem::take(&mut self.told);
+        let sealed = told
+            && self
+                .helper
+                .as_ref()
+                .is_some_and(|h| h.go.send(Signal::Seal).is_ok());
         self.batch.work();
-        if Self::worth_sharing(self.firings) {
+        if sealed {
             if let Some(h) = &self.helper {
                 if h.done.recv().is_err() {
                     // The helper died mid-batch: cast its chunks again here.
@@ -247,8 +299,14 @@ impl RayCaster {
                     self.batch.work();
                 }
             }
+        } else if told {
+            // The seal could not be sent: the helper is gone. Whatever it
+            // claimed is cast again here.
+            self.helper = None;
+            self.batch.next.store(0, Ordering::Release);
+            self.batch.work();
         }
-        let count = self.firings.div_ceil(CHUNK_FIRINGS);
+        let count = self.batch.published.load(Ordering::Acquire);
         let mut k = 0;
         for chunk in &self.batch.chunks[..count] {
             let c = chunk.lock().unwrap_or_else(PoisonError::into_inner);
@@ -355,6 +413,16 @@ mod tests {
             // The calling thread is free meanwhile.
             std::hint::black_box((0..10_000).sum::<u64>());
             assert_eq!(&a[..n], &all(&mut two)[..], "{n} firings");
+        }
+        // Published a few firings at a time, as the physics steps: the
+        // helper starts on each full chunk, the last partial one goes with
+        // the batch's end.
+        for n in [200, 13] {
+            for k in (0..n).step_by(3) {
+                two.publish(&aims[..k], 70.0, false);
+            }
+            two.publish(&aims[..n], 70.0, true);
+            assert_eq!(&a[..n], &all(&mut two)[..], "{n} firings in steps");
         }
         // Nothing submitted, nothing handed over.
         assert!(all(&mut two).is_empty());
