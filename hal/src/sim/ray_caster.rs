@@ -198,6 +198,7 @@ impl RayCaster {
         let thread = std::thread::Builder::new()
             .name("speleo-lidar".into())
             .spawn(move || {
+                spare_time_only();
                 while let Ok(signal) = inbox.recv() {
                     batch.work();
                     if signal == Signal::Seal && outbox.send(()).is_err() {
@@ -314,6 +315,23 @@ impl RayCaster {
                 each(k, r);
                 k += 1;
             }
+        }
+    }
+}
+
+/// Run the calling thread only on time nothing else wants: the rover's
+/// software (the frame's thread, the internal simulator's worker) must
+/// not wait for the simulated sensor, and when the helper gets no core
+/// the frame's thread casts what is left. Where the scheduler refuses,
+/// the thread runs as it is.
+fn spare_time_only() {
+    #[cfg(target_os = "linux")]
+    {
+        let param = libc::sched_param { sched_priority: 0 };
+        // SAFETY: plain syscalls on the calling thread with valid arguments.
+        if unsafe { libc::sched_setscheduler(0, libc::SCHED_IDLE, &param) } != 0 {
+            // SAFETY: as above; on Linux the nice value is the thread's own.
+            unsafe { libc::setpriority(libc::PRIO_PROCESS, 0, 19) };
         }
     }
 }
