@@ -243,13 +243,13 @@ fn intensity(s: Surface, cos: f64) -> u8 {
 /// Firings queued before their rays are cast (a 10 ms frame has 217).
 const QUEUED_FIRINGS: usize = 256;
 
-/// A firing whose rays wait in the queue: when, at which azimuth, which
-/// lasers dropped out and each live laser's range noise (standard normal).
+/// A firing whose rays wait in the queue: when, at which azimuth, and
+/// each live laser's range noise (standard normal); which lasers fire is
+/// in the firing's `Aim`.
 #[derive(Clone, Copy, Debug)]
 struct QueuedFiring {
     t_ns: u64,
     azimuth: u16,
-    live: u32,
     noise: [f32; LASERS],
 }
 
@@ -347,7 +347,6 @@ impl SimLidar {
             let mut firing = QueuedFiring {
                 t_ns: t,
                 azimuth: (self.azimuth.round() as u32 % 36000) as u16,
-                live: 0,
                 noise: [0.0; LASERS],
             };
             // The head turns 36 us across a firing: one orientation per
@@ -358,16 +357,17 @@ impl SimLidar {
             let r = mid.matrix();
             let (pa, pb) = (pose0.lerp(pose1, fa).p, pose0.lerp(pose1, fb).p);
             let az0 = self.azimuth * (core::f64::consts::PI / 18000.0);
+            let mut live = 0;
             for l in 0..LASERS {
                 if self.noise.uniform() < self.p.dropout {
                     continue;
                 }
-                firing.live |= 1 << l;
+                live |= 1 << l;
                 firing.noise[l] = self.noise.gaussian() as f32;
             }
             // The caster aims each live laser from these.
             self.aims.push(Aim {
-                live: firing.live,
+                live,
                 start: pa,
                 end: pb,
                 rotation: r,
@@ -391,11 +391,6 @@ impl SimLidar {
     pub fn launch(&mut self) {
         self.caster.publish(&self.aims, self.p.max_range_m, true);
         self.launched = true;
-    }
-
-    /// Whether launched rays wait for `finish`.
-    pub fn launched(&self) -> bool {
-        self.launched
     }
 
     /// Finish casting the launched rays and queue their packets.

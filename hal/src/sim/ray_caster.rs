@@ -268,14 +268,6 @@ impl RayCaster {
         }
     }
 
-    /// Publish all of `aims` as one batch (see `publish`).
-    pub fn submit(&mut self, aims: &[Aim], max_m: f64) {
-        if self.in_flight {
-            self.collect(|_, _| {});
-        }
-        self.publish(aims, max_m, true);
-    }
-
     /// Finish the published batch and hand each firing's returns (indexed
     /// by laser; none for a laser that did not fire) to `each`, in order.
     /// Without a published batch nothing is handed over.
@@ -396,11 +388,11 @@ mod tests {
         let mut two = RayCaster::new(lw, head, 100, 2);
         assert!(!one.shared());
         assert!(two.shared());
-        one.submit(&aims, 70.0);
+        one.publish(&aims, 70.0, true);
         let a = all(&mut one);
         // Twice: the helper goes back to waiting between batches.
         for _ in 0..2 {
-            two.submit(&aims, 70.0);
+            two.publish(&aims, 70.0, true);
             assert_eq!(a, all(&mut two));
         }
         let hits = a.iter().flatten().filter(|r| r.is_some()).count();
@@ -419,15 +411,15 @@ mod tests {
     }
 
     #[test]
-    fn a_submitted_batch_is_collected_whole_after_other_work() {
+    fn a_published_batch_is_collected_whole_after_other_work() {
         let (w, head, aims) = firings(200);
         let lw = Arc::new(LidarWorld::new(&w.mesh).expect("mesh"));
         let mut one = RayCaster::new(lw.clone(), head, 200, 1);
-        one.submit(&aims, 70.0);
+        one.publish(&aims, 70.0, true);
         let a = all(&mut one);
         let mut two = RayCaster::new(lw.clone(), head, 200, 2);
         for n in [200, 10, 0] {
-            two.submit(&aims[..n], 70.0);
+            two.publish(&aims[..n], 70.0, true);
             // The calling thread is free meanwhile.
             std::hint::black_box((0..10_000).sum::<u64>());
             assert_eq!(&a[..n], &all(&mut two)[..], "{n} firings");
@@ -442,11 +434,11 @@ mod tests {
             two.publish(&aims[..n], 70.0, true);
             assert_eq!(&a[..n], &all(&mut two)[..], "{n} firings in steps");
         }
-        // Nothing submitted, nothing handed over.
+        // Nothing published, nothing handed over.
         assert!(all(&mut two).is_empty());
         // Firings past the capacity are not cast.
         let mut small = RayCaster::new(lw, head, 16, 2);
-        small.submit(&aims, 70.0);
+        small.publish(&aims, 70.0, true);
         assert_eq!(&a[..small.capacity()], &all(&mut small)[..]);
     }
 }
