@@ -152,8 +152,6 @@ pub struct RayCaster {
     helper: Option<Helper>,
     /// A batch has been published and not collected.
     in_flight: bool,
-    /// Firings published in the current batch.
-    firings: usize,
     /// The helper was told of the current batch.
     told: bool,
 }
@@ -186,7 +184,6 @@ impl RayCaster {
             batch,
             helper,
             in_flight: false,
-            firings: 0,
             told: false,
         }
     }
@@ -236,7 +233,6 @@ impl RayCaster {
             b.max_m.store(max_m.to_bits(), Ordering::Release);
             b.next.store(0, Ordering::Release);
             b.published.store(0, Ordering::Release);
-            self.firings = 0;
             self.in_flight = true;
             self.told = false;
         }
@@ -257,7 +253,6 @@ impl RayCaster {
             chunk.returns.clear();
         }
         b.published.store(ready, Ordering::Release);
-        self.firings = (ready * CHUNK_FIRINGS).min(aims.len());
         if let Some(h) = &self.helper {
             if h.go.send(Signal::More).is_ok() {
                 self.told = true;
@@ -283,18 +278,9 @@ impl RayCaster {
                 .as_ref()
                 .is_some_and(|h| h.go.send(Signal::Seal).is_ok());
         self.batch.work();
-        if sealed {
-            if let Some(h) = &self.helper {
-                if h.done.recv().is_err() {
-                    // The helper died mid-batch: cast its chunks again here.
-                    self.helper = None;
-                    self.batch.next.store(0, Ordering::Release);
-                    self.batch.work();
-                }
-            }
-        } else if told {
-            // The seal could not be sent: the helper is gone. Whatever it
-            // claimed is cast again here.
+        let finished = sealed && self.helper.as_ref().is_some_and(|h| h.done.recv().is_ok());
+        if told && !finished {
+            // The helper is gone, perhaps mid-chunk: cast everything here.
             self.helper = None;
             self.batch.next.store(0, Ordering::Release);
             self.batch.work();
