@@ -62,6 +62,12 @@ pub struct TaskFigures {
     pub p50_us: f64,
     pub p99_us: f64,
     pub p999_us: f64,
+    /// The same runs on the thread's CPU clock: without the time the
+    /// thread was preempted (by the simulated world's threads or anything
+    /// else on the machine). None where it was not measured.
+    pub cpu_p99_us: Option<f64>,
+    pub cpu_p999_us: Option<f64>,
+    pub cpu_max_us: Option<f64>,
     pub overruns: u64,
     pub skipped: u64,
     pub allocations: u64,
@@ -252,6 +258,9 @@ fn worker_figures(w: &SimWorker, minor_frame_us: u32) -> TaskFigures {
         p50_us: us(h.quantile_ns(0.5)),
         p99_us: us(h.quantile_ns(0.99)),
         p999_us: us(h.quantile_ns(0.999)),
+        cpu_p99_us: None,
+        cpu_p999_us: None,
+        cpu_max_us: None,
         overruns: 0,
         skipped: 0,
         // Charged to the planner, whose runs take its batches back.
@@ -646,6 +655,9 @@ pub fn run<C: FrameClock>(
         .zip(exec.stats())
         .enumerate()
         .map(|(i, (spec, st))| TaskFigures {
+            cpu_p99_us: st.cpu_us().map(|c| c.p99_us),
+            cpu_p999_us: st.cpu_us().map(|c| c.p999_us),
+            cpu_max_us: st.cpu_us().map(|c| c.max_us),
             name: spec.name.to_string(),
             period_us: spec.rate.period_us(minor_frame_us),
             budget_us: spec.run_budget_us(),

@@ -44,9 +44,13 @@ pub struct StepTimes {
     pub p50_us: f64,
     pub p999_us: f64,
     pub max_us: f64,
-    /// The times themselves, for pooling runs (`speleo wcet --calibrate`).
+    /// The steps' p99.9 on the thread's CPU clock (preemption left out).
+    pub cpu_p999_us: f64,
+    /// The CPU times themselves, for pooling runs (`speleo wcet
+    /// --calibrate` sizes the units by the work's own time, not by the
+    /// time the thread was preempted).
     #[serde(skip)]
-    pub histogram: Histogram,
+    pub cpu_histogram: Histogram,
 }
 
 /// The median of a report's figures (not on board: it sorts a copy).
@@ -86,8 +90,9 @@ pub fn figures(t: &PlannerTask, max_nodes: usize) -> PlannerFigures {
         step_us: PHASE_NAMES
             .iter()
             .zip(t.step_times.iter().zip(t.step_units_run))
-            .filter(|(_, (h, _))| h.count() > 0)
-            .map(|(n, (h, units))| {
+            .zip(&t.step_cpu_times)
+            .filter(|((_, (h, _)), _)| h.count() > 0)
+            .map(|((n, (h, units)), cpu)| {
                 let us = |ns: u64| ns as f64 / 1000.0;
                 let times = StepTimes {
                     steps: h.count(),
@@ -95,7 +100,8 @@ pub fn figures(t: &PlannerTask, max_nodes: usize) -> PlannerFigures {
                     p50_us: us(h.quantile_ns(0.5)),
                     p999_us: us(h.quantile_ns(0.999)),
                     max_us: us(h.max_ns()),
-                    histogram: h.clone(),
+                    cpu_p999_us: us(cpu.quantile_ns(0.999)),
+                    cpu_histogram: cpu.clone(),
                 };
                 (*n, times)
             })

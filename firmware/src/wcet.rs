@@ -114,6 +114,8 @@ pub struct TaskVerdict {
     pub max_us: f64,
     pub p99_us: f64,
     pub p999_us: f64,
+    /// The p99.9 on the thread's CPU clock (preemption left out).
+    pub cpu_p999_us: Option<f64>,
     pub overruns: u64,
     pub alloc_bytes_max_run: u64,
     pub memory_budget_kib: Option<u32>,
@@ -169,6 +171,7 @@ pub fn verdicts(tasks: &[TaskFigures]) -> Vec<TaskVerdict> {
             max_us: t.max_us,
             p99_us: t.p99_us,
             p999_us: t.p999_us,
+            cpu_p999_us: t.cpu_p999_us,
             overruns: t.overruns,
             alloc_bytes_max_run: t.alloc_bytes_max_run,
             memory_budget_kib: t.memory_budget_kib,
@@ -232,21 +235,25 @@ fn print(s: &ScenarioReport) {
         );
     }
     println!(
-        "  {:<13} {:>8} {:>9} {:>9} {:>9} {:>9} {:>17}  verdict",
-        "task", "budget", "max", "p99", "p99.9", "overruns", "heap/run (budget)"
+        "  {:<13} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9} {:>17}  verdict",
+        "task", "budget", "max", "p99", "p99.9", "cpu p99.9", "overruns", "heap/run (budget)"
     );
     for t in &s.tasks {
         let heap = match t.memory_budget_kib {
             Some(kib) => format!("{}k ({kib}k)", t.alloc_bytes_max_run.div_ceil(1024)),
             None => format!("{}k", t.alloc_bytes_max_run.div_ceil(1024)),
         };
+        let cpu = t
+            .cpu_p999_us
+            .map_or_else(|| "-".to_string(), |c| format!("{c:.0}us"));
         println!(
-            "  {:<13} {:>6}us {:>7.0}us {:>7.0}us {:>7.0}us {:>9} {:>17}  {}",
+            "  {:<13} {:>6}us {:>7.0}us {:>7.0}us {:>7.0}us {:>9} {:>9} {:>17}  {}",
             t.name,
             t.budget_us,
             t.max_us,
             t.p99_us,
             t.p999_us,
+            cpu,
             t.overruns,
             heap,
             if t.pass { "pass" } else { "FAIL" }
@@ -358,6 +365,9 @@ mod tests {
             p50_us: 100.0,
             p99_us: p999_us,
             p999_us,
+            cpu_p99_us: None,
+            cpu_p999_us: None,
+            cpu_max_us: None,
             overruns: 0,
             skipped: 0,
             allocations: 0,

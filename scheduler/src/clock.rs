@@ -8,6 +8,12 @@
 /// allocations.
 pub trait Platform {
     fn now_ns(&self) -> u64;
+    /// CPU time the calling thread has had, ns; None where the platform
+    /// cannot tell. A run's CPU time leaves out the time the thread was
+    /// preempted, which its wall time (`now_ns`) includes.
+    fn thread_cpu_ns(&self) -> Option<u64> {
+        None
+    }
     fn enter(&self, _slot: u16) {}
     /// Heap bytes requested so far by the code of `slot` (0 where nothing
     /// counts them).

@@ -136,6 +136,7 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
         // The clock is read again after the bookkeeping of each run, so a
         // task is charged for its own run and nothing else.
         let mut t0 = self.platform.now_ns();
+        let mut c0 = self.platform.thread_cpu_ns();
         for i in 0..self.tasks.len() {
             let spec = &self.schedule.tasks()[i];
             if !spec.rate.runs_in(frame) {
@@ -162,7 +163,11 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
                 }
             }
             let t1 = self.platform.now_ns();
+            let c1 = self.platform.thread_cpu_ns();
             let dt = t1.saturating_sub(t0);
+            if let (Some(c0), Some(c1)) = (c0, c1) {
+                st.cpu_histogram.record(c1.saturating_sub(c0));
+            }
             self.platform.enter(EXECUTIVE_SLOT);
             let run_bytes = self.platform.allocated_bytes(slot).saturating_sub(bytes0);
             st.alloc_bytes_max_run = st.alloc_bytes_max_run.max(run_bytes);
@@ -216,6 +221,7 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             }
             between(i);
             t0 = self.platform.now_ns();
+            c0 = self.platform.thread_cpu_ns();
         }
         self.next_frame = frame + 1;
         self.frames_run += 1;

@@ -38,7 +38,7 @@ pub use clock::{FrameClock, Platform, VirtualClock};
 pub use executive::{Enforcement, Executive, FrameReport};
 pub use schedule::{Schedule, ScheduleError};
 pub use spec::{AnytimeSpec, OverrunPolicy, RateGroup, TaskName, TaskSpec};
-pub use stats::TaskStats;
+pub use stats::{CpuFigures, TaskStats};
 pub use task::{Context, Mode, StepResult, Task};
 
 /// Most tasks one schedule can hold (fixed so the tables need no heap).

@@ -234,6 +234,10 @@ struct ScriptedPlatform {
     now: Cell<u64>,
     /// Duration the next measured run takes, by task slot.
     durations: Cell<[u64; 8]>,
+    /// Of which the thread was preempted (not on its CPU clock).
+    preempted: Cell<[u64; 8]>,
+    /// The thread's CPU clock.
+    cpu: Cell<u64>,
     slot: Cell<u16>,
 }
 impl ScriptedPlatform {
@@ -241,6 +245,8 @@ impl ScriptedPlatform {
         ScriptedPlatform {
             now: Cell::new(0),
             durations: Cell::new([0; 8]),
+            preempted: Cell::new([0; 8]),
+            cpu: Cell::new(0),
             slot: Cell::new(0),
         }
     }
@@ -253,6 +259,15 @@ impl Platform for &ScriptedPlatform {
             self.now.set(self.now.get() + self.durations.get()[slot]);
         }
         self.now.get()
+    }
+    fn thread_cpu_ns(&self) -> Option<u64> {
+        // Read right after `now_ns` at a run's end: the run's time on CPU.
+        let slot = self.slot.get() as usize;
+        if slot != 0 {
+            let on_cpu = self.durations.get()[slot] - self.preempted.get()[slot];
+            self.cpu.set(self.cpu.get() + on_cpu);
+        }
+        Some(self.cpu.get())
     }
     fn enter(&self, slot: u16) {
         self.slot.set(slot);
@@ -396,4 +411,50 @@ fn work_between_tasks_is_charged_to_no_task() {
     assert_eq!(called.iter().filter(|&&i| i == 2).count(), 1);
     // Frame 0 runs the producer and the motor, frame 1 the doubler too.
     assert_eq!(&called[..5], &[0, 3, 0, 1, 3]);
+}
+
+#[test]
+fn cpu_time_leaves_out_preemption() {
+    let platform = ScriptedPlatform::new();
+    platform
+        .durations
+        .set([50_000u64, 50_000, 5_000_000, 50_000, 50_000, 0, 0, 0]);
+    // The doubler's 5 ms run was preempted for all but 120 us of it.
+    platform.preempted.set([0, 0, 4_880_000, 0, 0, 0, 0, 0]);
+    let mut bus = Bus::default();
+    let mut tasks = Tasks::new();
+    let mut exec = tasks.executive(&platform, Enforcement::CountOnly);
+    for _ in 0..10 {
+        exec.run_frame(&mut bus);
+    }
+    let doubler = &exec.stats()[1];
+    // Budgets are judged on the wall clock...
+    assert_eq!(doubler.overruns, doubler.runs);
+    assert!((doubler.max_us() - 5000.0).abs() < 5000.0 * 0.07);
+    // ...and the CPU clock shows what the task itself took.
+    let cpu = doubler.cpu_us().expect("measured");
+    assert!((cpu.max_us - 120.0).abs() < 120.0 * 0.07, "{cpu:?}");
+    let producer = exec.stats()[0].cpu_us().expect("measured");
+    assert!(
+        (producer.p999_us - 50.0).abs() < 50.0 * 0.07,
+        "{producer:?}"
+    );
+}
+
+#[test]
+fn the_real_platform_measures_cpu_time() {
+    let mut bus = Bus::default();
+    let mut tasks = Tasks::new();
+    let mut exec = tasks.executive(StdPlatform, Enforcement::CountOnly);
+    for _ in 0..4 {
+        exec.run_frame(&mut bus);
+    }
+    for st in exec.stats().iter().filter(|s| s.runs > 0) {
+        let cpu = st.cpu_us().expect("the thread's CPU clock is read");
+        assert!(
+            cpu.max_us <= st.max_us() * 1.07 + 1.0,
+            "{cpu:?} vs {}",
+            st.max_us()
+        );
+    }
 }

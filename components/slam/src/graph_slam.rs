@@ -516,6 +516,20 @@ impl GraphSlam {
         true
     }
 
+    /// The work the next [`GraphSlam::step`] does, for logs.
+    pub fn work(&self) -> &'static str {
+        match self.phase {
+            Phase::Idle => "idle",
+            Phase::Gather(_) => "gather",
+            Phase::Build => "build",
+            Phase::Covariances => "covariances",
+            Phase::Register(_) => "register",
+            Phase::Insert => "insert",
+            Phase::Analyse => "analyse",
+            Phase::Optimize { .. } => "optimize",
+        }
+    }
+
     /// One bounded unit of work; returns false when idle.
     pub fn step(&mut self) -> bool {
         match self.phase {

@@ -22,6 +22,7 @@ use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
 use speleo_planner::mprim::MprimFile;
 use speleo_planner::surface::{SurfaceLattice, SOLID_PER_CELL};
 use speleo_scheduler::histogram::Histogram;
+use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
@@ -185,11 +186,16 @@ pub struct PlannerTask {
     /// Each phase's step times (by [`PHASE_NAMES`]), for calibrating its
     /// units: measured only, never acted on, so outputs stay the same.
     pub step_times: [Histogram; PHASE_NAMES.len()],
+    /// The same steps on the thread's CPU clock (preemption left out).
+    pub step_cpu_times: [Histogram; PHASE_NAMES.len()],
     /// Units a step of each phase does (`planner.step_units`)...
     step_units: [u32; PHASE_NAMES.len()],
     /// ...and did, capped by the scheduler's quantum (0: no step yet).
     pub step_units_run: [u32; PHASE_NAMES.len()],
 }
+
+/// A step this long on the thread's CPU clock is logged (debug), ns.
+const SLOW_STEP_NS: u64 = 1_000_000;
 
 /// The phases whose steps are timed, in [`PlannerTask::step_times`] order.
 pub use crate::config::STEP_PHASES as PHASE_NAMES;
@@ -258,6 +264,7 @@ impl PlannerTask {
             final_eps_milli: Vec::with_capacity(HISTORY),
             counters: PlannerCounters::default(),
             step_times: std::array::from_fn(|_| Histogram::new()),
+            step_cpu_times: std::array::from_fn(|_| Histogram::new()),
             step_units: cfg.step_units.as_array(),
             step_units_run: [0; PHASE_NAMES.len()],
         })
@@ -1005,9 +1012,18 @@ impl Task<Bus> for PlannerTask {
             None => quantum.max(1),
         };
         let started = std::time::Instant::now();
+        let cpu0 = thread_cpu_ns();
         let went_on = self.work(bus, cx, units);
         if let Some(i) = timed {
-            self.step_times[i].record(started.elapsed().as_nanos() as u64);
+            let wall_ns = started.elapsed().as_nanos() as u64;
+            let cpu_ns = thread_cpu_ns().saturating_sub(cpu0);
+            self.step_times[i].record(wall_ns);
+            self.step_cpu_times[i].record(cpu_ns);
+            if cpu_ns > SLOW_STEP_NS {
+                // Which phase, and whether the step ended it: what a
+                // calibration by units cannot see.
+                tracing::debug!(phase = PHASE_NAMES[i], units, cpu_us = cpu_ns / 1000, wall_us = wall_ns / 1000, next = ?self.phase.timed_index().map(|j| PHASE_NAMES[j]), "slow planner step");
+            }
         }
         if !went_on || self.phase == Phase::Idle {
             StepResult::Idle

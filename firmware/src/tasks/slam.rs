@@ -7,6 +7,7 @@
 //! A unit visits at most `slam.points_per_step` points.
 
 use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_slam::deskew::deskew;
 use speleo_slam::graph_slam::{GraphSlam, SlamParams};
@@ -17,6 +18,10 @@ use crate::config::FalseLoopClosure;
 
 /// Points within this span of firing times share one deskewing pose.
 const DESKEW_SLICE_S: f64 = 100e-6;
+
+/// A unit of keyframe work this long on the thread's CPU clock is logged
+/// (debug), ns.
+const SLOW_UNIT_NS: u64 = 1_000_000;
 
 /// Returns closer than this hit the rover itself.
 const MIN_RANGE_M: f32 = 0.6;
@@ -287,7 +292,19 @@ impl Task<Bus> for SlamTask {
             self.inject_due_loop();
             let checks =
                 self.slam.stats().loop_closures + self.slam.stats().loop_candidates_rejected;
-            if !self.slam.step() {
+            let (work, cpu0) = (self.slam.work(), thread_cpu_ns());
+            let busy = self.slam.step();
+            let cpu_ns = thread_cpu_ns().saturating_sub(cpu0);
+            if cpu_ns > SLOW_UNIT_NS {
+                // Which unit: the ones that grow with the map show here.
+                tracing::debug!(
+                    work,
+                    cpu_us = cpu_ns / 1000,
+                    keyframes = self.slam.keyframes().len(),
+                    "slow SLAM unit"
+                );
+            }
+            if !busy {
                 if self.poses_stale && self.map_range_m.is_some() {
                     self.poses_stale = false;
                     let slam = &self.slam;
