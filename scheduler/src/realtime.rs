@@ -2,34 +2,33 @@
 
 use crate::clock::{FrameClock, Platform};
 
-/// Nanoseconds on `CLOCK_MONOTONIC`.
+/// Nanoseconds on clock `id`.
 #[inline]
-pub fn monotonic_ns() -> u64 {
+fn clock_ns(id: libc::clockid_t) -> u64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
-    // SAFETY: `ts` is a valid, writable timespec; CLOCK_MONOTONIC always exists
-    // on Linux, so the call cannot fail.
-    unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    // SAFETY: `ts` is a valid, writable timespec; the callers pass clocks
+    // that always exist on Linux, so the call cannot fail.
+    unsafe { libc::clock_gettime(id, &mut ts) };
     ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// Nanoseconds on `CLOCK_MONOTONIC`.
+#[inline]
+pub fn monotonic_ns() -> u64 {
+    clock_ns(libc::CLOCK_MONOTONIC)
 }
 
 /// CPU time of the calling thread, ns (`CLOCK_THREAD_CPUTIME_ID`).
 #[inline]
 pub fn thread_cpu_ns() -> u64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; the calling thread's CPU
-    // clock always exists on Linux.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+    clock_ns(libc::CLOCK_THREAD_CPUTIME_ID)
 }
 
-/// Measures with `CLOCK_MONOTONIC` (and the thread's CPU clock) and reports the running slot to the
-/// [`crate::accounting`] allocator.
+/// Measures with `CLOCK_MONOTONIC` (and the thread's CPU clock) and
+/// reports the running slot to the [`crate::accounting`] allocator.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct StdPlatform;
 
