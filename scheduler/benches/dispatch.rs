@@ -32,6 +32,32 @@ impl Task<Bus> for Add {
     }
 }
 
+/// One frame of `TASKS` trivial tasks through the executive on `platform`.
+fn bench_executive<P: Platform>(
+    g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    schedule: &Schedule,
+    platform: P,
+    bus: &mut Bus,
+) {
+    let mut objs: Vec<Add> = (0..TASKS as u64).map(Add).collect();
+    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
+    for t in objs.iter_mut() {
+        let _ = tasks.push(t);
+    }
+    let mut exec = Executive::new(
+        schedule.clone(),
+        tasks,
+        platform,
+        VirtualClock::new(10_000),
+        Enforcement::CountOnly,
+    )
+    .expect("executive");
+    g.bench_function(name, |b| {
+        b.iter(|| exec.run_frame(std::hint::black_box(&mut *bus)))
+    });
+}
+
 fn bench(c: &mut Criterion) {
     let specs: Vec<TaskSpec> = (0..TASKS)
         .map(|i| {
@@ -47,42 +73,20 @@ fn bench(c: &mut Criterion) {
     let mut bus = Bus { value: 0 };
     let mut g = c.benchmark_group("dispatch");
     g.throughput(Throughput::Elements(TASKS as u64));
-    {
-        let mut objs: Vec<Add> = (0..TASKS as u64).map(Add).collect();
-        let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
-        for t in objs.iter_mut() {
-            let _ = tasks.push(t);
-        }
-        let mut exec = Executive::new(
-            schedule.clone(),
-            tasks,
-            StdPlatform,
-            VirtualClock::new(10_000),
-            Enforcement::CountOnly,
-        )
-        .expect("executive");
-        g.bench_function("executive_17_tasks_per_frame", |b| {
-            b.iter(|| exec.run_frame(std::hint::black_box(&mut bus)))
-        });
-    }
-    {
-        let mut objs: Vec<Add> = (0..TASKS as u64).map(Add).collect();
-        let mut tasks: heapless::Vec<&mut dyn Task<Bus>, 32> = heapless::Vec::new();
-        for t in objs.iter_mut() {
-            let _ = tasks.push(t);
-        }
-        let mut exec = Executive::new(
-            schedule,
-            tasks,
-            WallOnly,
-            VirtualClock::new(10_000),
-            Enforcement::CountOnly,
-        )
-        .expect("executive");
-        g.bench_function("executive_17_tasks_per_frame_wall_clock_only", |b| {
-            b.iter(|| exec.run_frame(std::hint::black_box(&mut bus)))
-        });
-    }
+    bench_executive(
+        &mut g,
+        "executive_17_tasks_per_frame",
+        &schedule,
+        StdPlatform,
+        &mut bus,
+    );
+    bench_executive(
+        &mut g,
+        "executive_17_tasks_per_frame_wall_clock_only",
+        &schedule,
+        WallOnly,
+        &mut bus,
+    );
     let mut direct: Vec<Add> = (0..TASKS as u64).map(Add).collect();
     let cx = Context {
         frame: 0,

@@ -292,9 +292,15 @@ impl Task<Bus> for SlamTask {
             self.inject_due_loop();
             let checks =
                 self.slam.stats().loop_closures + self.slam.stats().loop_candidates_rejected;
-            let (work, cpu0) = (self.slam.work(), thread_cpu_ns());
+            // The clock is a system call: read only for the debug log.
+            let timed = tracing::enabled!(tracing::Level::DEBUG);
+            let (work, cpu0) = (self.slam.work(), if timed { thread_cpu_ns() } else { 0 });
             let busy = self.slam.step();
-            let cpu_ns = thread_cpu_ns().saturating_sub(cpu0);
+            let cpu_ns = if timed {
+                thread_cpu_ns().saturating_sub(cpu0)
+            } else {
+                0
+            };
             if cpu_ns > SLOW_UNIT_NS {
                 // Which unit: the ones that grow with the map show here.
                 tracing::debug!(
