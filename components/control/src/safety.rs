@@ -330,6 +330,29 @@ impl SafetyMonitor {
                 Probe::Blocked => gap = 0.0,
             }
         }
+        // A gap still open where the path ends lies under the wheels when
+        // the rover stands there: it is a sensor gap only if the ground
+        // resumes within `max_gap_m` beyond. A garage rover sent to a
+        // frontier at a ramp's opening, whose far side the slab hid, stood
+        // with its front wheels over the 2.4 m drop and turned over.
+        if gap > 0.0 && s.remaining_m < self.p.probe_ahead_m {
+            let more = libm::ceil(self.p.max_gap_m / self.p.probe_step_m) as usize + 1;
+            for k in steps + 1..=steps + more {
+                let d = k as f64 * self.p.probe_step_m;
+                let r = self.p.front_m + d;
+                let (x, y) = front(d);
+                match map.probe(x, y, ground, self.p.max_step_m + r * slope) {
+                    Probe::Ground | Probe::Blocked => break,
+                    Probe::NoGround if self.in_blind_zone(x, y) => break,
+                    Probe::NoGround | Probe::Drop => {
+                        gap += self.p.probe_step_m;
+                        if gap > self.p.max_gap_m {
+                            return Some(StopReason::LeavingMap);
+                        }
+                    }
+                }
+            }
+        }
         None
     }
 }
@@ -433,6 +456,40 @@ mod tests {
         let mut near_end = input(4.2, 0.0);
         near_end.remaining_m = 0.2;
         assert_eq!(m.check(&near_end, &map), None);
+    }
+
+    #[test]
+    fn a_path_ending_with_the_wheels_over_unseen_ground_stops_unless_it_resumes() {
+        // The path ends with base_link at 4.8 m, the front of the wheels at
+        // 5.3 m: 0.3 m past the last ground seen, less than a ring gap.
+        let mut at = input(4.2, 0.0);
+        at.remaining_m = 0.6;
+        let edge = Ledge {
+            edge: 5.0,
+            wall: None,
+        };
+        // The plan began 4 m back, out of reach of the blind ring.
+        let began = |map: &dyn Fn(&mut SafetyMonitor) -> Option<StopReason>| {
+            let mut m = SafetyMonitor::new(SafetyParams::default());
+            m.check(&input(0.2, 0.0), &Ledge { edge: 9.0, wall: None });
+            map(&mut m)
+        };
+        assert_eq!(
+            began(&|m| m.check(&at, &edge)),
+            Some(StopReason::LeavingMap)
+        );
+        // The same stretch with ground again at 5.4 m is a ring gap.
+        struct RingGap;
+        impl GroundProbe for RingGap {
+            fn probe(&self, x: f64, _y: f64, _z: f64, _tol: f64) -> Probe {
+                if (5.0..5.4).contains(&x) {
+                    Probe::NoGround
+                } else {
+                    Probe::Ground
+                }
+            }
+        }
+        assert_eq!(began(&|m| m.check(&at, &RingGap)), None);
     }
 
     #[test]
