@@ -471,7 +471,13 @@ mod tests {
         // The plan began 4 m back, out of reach of the blind ring.
         let began = |map: &dyn Fn(&mut SafetyMonitor) -> Option<StopReason>| {
             let mut m = SafetyMonitor::new(SafetyParams::default());
-            m.check(&input(0.2, 0.0), &Ledge { edge: 9.0, wall: None });
+            m.check(
+                &input(0.2, 0.0),
+                &Ledge {
+                    edge: 9.0,
+                    wall: None,
+                },
+            );
             map(&mut m)
         };
         assert_eq!(

@@ -152,25 +152,31 @@ impl CandidateScan {
         self.tight
     }
 
-    /// Score up to `nodes` more nodes; true when the whole graph is scanned.
+    /// Score more nodes until `work` units are spent (a node looked at,
+    /// and a cell looked up around a candidate, count one each); true
+    /// when the whole graph is scanned. A slice of nodes took from 15 us
+    /// to 1.7 ms: most nodes are passed over at a glance, and a frontier's
+    /// are each scored over a hundred cells.
     pub fn step(
         &mut self,
         trav: &TravMap,
         coverage: &CoverageMap,
         rejected: &[[f64; 2]],
-        nodes: usize,
+        work: u64,
     ) -> bool {
-        let all = trav.nodes();
-        let to = self.next.saturating_add(nodes.max(1)).min(all.len());
+        let all = trav.nodes().len();
         let mut census = self.census;
-        for i in self.next..to {
-            if let Some(c) = self.score(trav, coverage, rejected, i as u32, &mut census) {
+        let mut spent = 0u64;
+        while self.next < all && spent < work.max(1) {
+            let i = self.next as u32;
+            self.next += 1;
+            spent += 1;
+            if let Some(c) = self.score(trav, coverage, rejected, i, &mut census, &mut spent) {
                 self.keep(c);
             }
         }
-        self.next = to;
         self.census = census;
-        to == all.len()
+        self.next == all
     }
 
     /// Best first.
@@ -218,6 +224,7 @@ impl CandidateScan {
         rejected: &[[f64; 2]],
         i: u32,
         census: &mut ScanCensus,
+        work: &mut u64,
     ) -> Option<Candidate> {
         let n = trav.node(i)?;
         let res = trav.resolution();
@@ -278,11 +285,11 @@ impl CandidateScan {
         } else {
             self.p.clearance_m
         };
-        if obstacle_near(trav, n.ix, n.iy, n.ground_z, clearance) {
+        if obstacle_near(trav, n.ix, n.iy, n.ground_z, clearance, work) {
             census.cramped += 1;
             return None;
         }
-        let unexplored_m2 = unexplored_near(trav, n.ix, n.iy, self.p.unexplored_radius_m);
+        let unexplored_m2 = unexplored_near(trav, n.ix, n.iy, self.p.unexplored_radius_m, work);
         let mut score = self.p.weight_distance * d - self.p.weight_unexplored * unexplored_m2;
         if let Some(t) = self.target {
             score += self.p.weight_target * (p[0] - t[0]).hypot(p[1] - t[1]);
@@ -296,14 +303,16 @@ impl CandidateScan {
     }
 }
 
-/// Whether an obstacle patch near height `z` lies within `radius_m`.
-fn obstacle_near(trav: &TravMap, ix: i32, iy: i32, z: f32, radius_m: f64) -> bool {
+/// Whether an obstacle patch near height `z` lies within `radius_m`; the
+/// cells looked up are added to `work`.
+fn obstacle_near(trav: &TravMap, ix: i32, iy: i32, z: f32, radius_m: f64, work: &mut u64) -> bool {
     let r = (radius_m / trav.resolution()).round() as i32;
     for dy in -r..=r {
         for dx in -r..=r {
             if dx * dx + dy * dy > r * r {
                 continue;
             }
+            *work += 1;
             let hit = trav.nodes_in_cell(ix + dx, iy + dy).any(|j| {
                 trav.node(j)
                     .is_some_and(|m| m.class == TravClass::Obstacle && (m.ground_z - z).abs() < 0.5)
@@ -318,8 +327,9 @@ fn obstacle_near(trav: &TravMap, ix: i32, iy: i32, z: f32, radius_m: f64) -> boo
 
 /// Area within `radius_m` of cell (ix, iy) where the graph has no patch,
 /// m^2, sampled on every other cell (the graph's gaps are unobserved
-/// ground, walls and what lies behind them).
-fn unexplored_near(trav: &TravMap, ix: i32, iy: i32, radius_m: f64) -> f64 {
+/// ground, walls and what lies behind them); the cells looked up are
+/// added to `work`.
+fn unexplored_near(trav: &TravMap, ix: i32, iy: i32, radius_m: f64, work: &mut u64) -> f64 {
     let res = trav.resolution();
     let r = (radius_m / res).round() as i32;
     let mut empty = 0u32;
@@ -328,6 +338,7 @@ fn unexplored_near(trav: &TravMap, ix: i32, iy: i32, radius_m: f64) -> f64 {
             if dx * dx + dy * dy > r * r {
                 continue;
             }
+            *work += 1;
             if trav.nodes_in_cell(ix + dx, iy + dy).next().is_none() {
                 empty += 1;
             }

@@ -40,7 +40,7 @@ fn scan(
     t: &TravMap,
     cov: &CoverageMap,
     rejected: &[[f64; 2]],
-    slice: usize,
+    slice: u64,
 ) -> Vec<speleo_exploration::Candidate> {
     let mut s = CandidateScan::new(CandidateParams::default());
     s.begin([0.0, 0.0], None, None);
@@ -70,7 +70,31 @@ fn the_open_end_of_a_corridor_is_the_best_candidate() {
     }
     // Slices of any size give the same list.
     assert_eq!(scan(&t, &cov, &[], 1), best);
-    assert_eq!(scan(&t, &cov, &[], usize::MAX), best);
+    assert_eq!(scan(&t, &cov, &[], u64::MAX), best);
+}
+
+#[test]
+fn a_slice_ends_when_its_work_is_spent_not_after_so_many_nodes() {
+    let t = corridor();
+    let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    cov.mark(0.0, 0.0, 0.2, 3.0);
+    let mut s = CandidateScan::new(CandidateParams::default());
+    s.begin([0.0, 0.0], None, None);
+    let mut per_slice = Vec::new();
+    loop {
+        let before = s.census().scanned;
+        let done = s.step(&t, &cov, &[], 200);
+        per_slice.push(s.census().scanned - before);
+        if done {
+            break;
+        }
+    }
+    // Nodes passed over at a glance cost one unit each; a scored
+    // candidate looks up ~100 cells, so the slices at the open end hold
+    // only a few nodes.
+    assert!(per_slice.iter().all(|&n| n <= 200), "{per_slice:?}");
+    assert!(per_slice.contains(&200), "{per_slice:?}");
+    assert!(per_slice.iter().any(|&n| n < 20), "{per_slice:?}");
 }
 
 #[test]

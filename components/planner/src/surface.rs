@@ -23,7 +23,7 @@
 //! (Dijkstra from the goal node), scaled by the smallest ratio of straight
 //! to 8-neighbour length so that it never overestimates.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -167,6 +167,9 @@ pub struct SurfaceLattice {
     open: BinaryHeap<Reverse<(u32, u32)>>,
     /// Scratch: the nodes an action's path visits.
     path: RefCell<Vec<u32>>,
+    /// Successor work so far ([`Lattice::work`]): a path step or a
+    /// footprint cell tested, one each.
+    work: Cell<u64>,
 }
 
 fn direction(dx: i32, dy: i32) -> Option<u8> {
@@ -236,6 +239,7 @@ impl SurfaceLattice {
             prep: Prep::None,
             open: BinaryHeap::with_capacity(8 * n + 1),
             path: RefCell::new(Vec::with_capacity(256)),
+            work: Cell::new(0),
         })
     }
 
@@ -616,6 +620,9 @@ impl SurfaceLattice {
         let mut steepest_deg = nodes[n as usize].slope_deg;
         let mut bump = self.bump[n as usize];
         let res = self.trav.resolution();
+        // Counted up front: an action cut short cost part of it, an action
+        // that tests its footprint is counted again below.
+        self.work.set(self.work.get() + a.steps.len() as u64);
         for &k in &a.steps {
             let next = nodes[cur as usize].neighbours[k as usize];
             if next == NONE {
@@ -644,6 +651,7 @@ impl SurfaceLattice {
         // pose has less room than the body's circle).
         let start = &nodes[n as usize];
         let oriented = if all_clear { &[][..] } else { &a.footprint[..] };
+        self.work.set(self.work.get() + oriented.len() as u64);
         for &(ox, oy, k) in oriented {
             let at = path[(k as usize).min(path.len() - 1)] as usize;
             let nd = &nodes[at];
@@ -832,8 +840,13 @@ impl Lattice for SurfaceLattice {
             .unwrap_or(INFINITE_COST)
     }
 
+    fn work(&self) -> u64 {
+        self.work.get()
+    }
+
     fn successors(&self, s: u32, out: &mut Vec<(u32, u32)>) {
         out.clear();
+        self.work.set(self.work.get() + 1);
         let (n, th) = self.decode(s);
         if self.prep != Prep::Ready || n as usize >= self.clear.len() {
             return;

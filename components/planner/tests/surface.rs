@@ -3,7 +3,7 @@
 //! twice.
 
 use speleo_mapping::mls::{MlsMap, MlsParams};
-use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
+use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress, WORK_PER_UNIT};
 use speleo_planner::primitives::{generate, PrimitiveSpec};
 use speleo_planner::surface::{SurfaceLattice, SurfaceParams};
 use speleo_traversability::{TravMap, TravParams};
@@ -40,6 +40,9 @@ struct Plan {
     expansions: u64,
     /// The most expansions one step made.
     step_expansions_max: u64,
+    step_expansions_min: u64,
+    /// The most lattice work a step did.
+    step_work_max: u64,
 }
 
 fn plan(m: &MlsMap, start: [f64; 4], goal: [f64; 4]) -> Plan {
@@ -70,6 +73,8 @@ fn plan_in_steps(
             path: Vec::new(),
             expansions: 0,
             step_expansions_max: 0,
+            step_expansions_min: 0,
+            step_work_max: 0,
         };
     };
     let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, 16);
@@ -86,10 +91,18 @@ fn plan_in_steps(
     );
     let mut first = None;
     let mut step_expansions_max = 0;
+    let mut step_expansions_min = u64::MAX;
+    let mut step_work_max = 0;
     let cost = loop {
         let before = a.stats().expansions;
+        let work_before = lat.work();
         let progress = a.step(&lat, units);
-        step_expansions_max = step_expansions_max.max(a.stats().expansions - before);
+        let expanded = a.stats().expansions - before;
+        step_expansions_max = step_expansions_max.max(expanded);
+        if matches!(progress, Progress::Searching) {
+            step_expansions_min = step_expansions_min.min(expanded);
+        }
+        step_work_max = step_work_max.max(lat.work() - work_before);
         match progress {
             Progress::Searching => {}
             Progress::Solution { cost, .. } => {
@@ -107,19 +120,34 @@ fn plan_in_steps(
         path: lat.path_positions(&states),
         expansions: a.stats().expansions,
         step_expansions_max,
+        step_expansions_min,
+        step_work_max,
     }
 }
 
 #[test]
-fn a_search_step_expands_at_most_its_units() {
+fn a_search_step_does_at_most_its_units_of_work() {
     // The executive's budget for the planner is a number of units, not a
-    // time: a step of 24 never expands a 25th state, whatever the map.
+    // time: a step of 24 does 24 units' lattice work, and at most one
+    // expansion more, whatever the map. Expansions by the walls test their
+    // footprints, so those steps expand fewer states.
     let m = world();
     let (start, goal) = ([1.0, 1.5, 0.0, 0.0], [11.5, 1.5, 1.0, 0.0]);
     let p = plan_in_steps(&m, start, goal, SurfaceParams::default(), 24);
     assert!(p.cost.is_some(), "no plan");
     assert!(p.expansions > 1_000, "{} expansions", p.expansions);
-    assert_eq!(p.step_expansions_max, 24);
+    let budget = 24 * WORK_PER_UNIT;
+    assert!(
+        p.step_work_max >= budget && p.step_work_max < budget + 4 * WORK_PER_UNIT,
+        "{} work in a step",
+        p.step_work_max
+    );
+    assert!(
+        p.step_expansions_min < p.step_expansions_max,
+        "{} to {} expansions a step",
+        p.step_expansions_min,
+        p.step_expansions_max
+    );
     // The same plan as in larger steps: the units cut the work, not the result.
     assert_eq!(p.cost, plan(&m, start, goal).cost);
 }

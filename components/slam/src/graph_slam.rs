@@ -526,8 +526,20 @@ impl GraphSlam {
             Phase::Register(_) => "register",
             Phase::Insert => "insert",
             Phase::Analyse => "analyse",
-            Phase::Optimize { .. } => "optimize",
+            Phase::Optimize { .. } => match self.solver.as_ref().map(Solver::stage) {
+                Some("solve") => "optimize: factorise",
+                Some("evaluate") => "optimize: evaluate",
+                _ => "optimize: linearise",
+            },
         }
+    }
+
+    /// The optimisation's unknowns and the non-zeros of its factor (0, 0
+    /// before there is a system): what a factorisation's cost grows with.
+    pub fn system_size(&self) -> (usize, usize) {
+        self.solver
+            .as_ref()
+            .map_or((0, 0), |s| (s.unknowns(), s.nonzeros().1))
     }
 
     /// One bounded unit of work; returns false when idle.

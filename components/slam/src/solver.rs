@@ -272,6 +272,17 @@ impl Solver {
         })
     }
 
+    /// The part of an iteration the next [`advance`](Self::advance) does:
+    /// "start", "assemble" (linearise), "solve" (factorise) or "evaluate".
+    pub fn stage(&self) -> &'static str {
+        match self.stage {
+            Stage::Start => "start",
+            Stage::Assemble(_) => "assemble",
+            Stage::Solve => "solve",
+            Stage::Evaluate(_) => "evaluate",
+        }
+    }
+
     /// Unknowns in the linear system.
     pub fn unknowns(&self) -> usize {
         self.n

@@ -18,7 +18,10 @@
 //! - *explorable*: traversable, next to an unknown node;
 //! - *traversable*: the rest.
 
+use std::cell::Cell;
 use std::collections::{HashMap, VecDeque};
+
+use foldhash::fast::FixedState;
 
 use speleo_mapping::mls::{drop_at, ground_near, MlsMap, Patch, PatchKind};
 use thiserror::Error;
@@ -45,6 +48,14 @@ pub const NEIGHBOURS: [(i32, i32); 8] = [
     (0, -1),
     (1, -1),
 ];
+
+/// Points a plane fit tests for one work unit of [`TravMap::grow`]: a
+/// point's distance to a candidate plane costs about what looking at a
+/// few patches does.
+pub const FIT_POINTS_PER_UNIT: usize = 8;
+
+/// Work units of setting a node's final class (its eight neighbours read).
+const FINISH_UNITS: u64 = 4;
 
 /// Cells under a footprint that must show a drop for it to hang over one:
 /// an edge crosses the footprint's rim in several, noise in one.
@@ -115,7 +126,9 @@ pub struct TravMap {
     resolution: f64,
     nodes: Vec<Node>,
     /// First node of each cell; the others follow through `next_in_cell`.
-    by_cell: HashMap<(i32, i32), u32>,
+    /// Hashed with a fixed seed, and fast: the lookups were a tenth of a
+    /// growth's time with the standard library's keyed hash.
+    by_cell: HashMap<(i32, i32), u32, FixedState>,
     next_in_cell: Vec<u32>,
     queue: VecDeque<u32>,
     /// Scratch: the support points of one footprint, and their heights
@@ -128,6 +141,8 @@ pub struct TravMap {
     /// Nodes whose final class is set, once the queue is empty.
     finished: usize,
     complete: bool,
+    /// Work done since the growth began (see [`grow`](Self::grow)).
+    work: Cell<u64>,
 }
 
 /// A rectangle of cells, inclusive.
@@ -163,7 +178,7 @@ impl TravMap {
         Ok(TravMap {
             resolution: 0.1,
             nodes: Vec::with_capacity(n),
-            by_cell: HashMap::with_capacity(n),
+            by_cell: HashMap::with_capacity_and_hasher(n, FixedState::with_seed(0)),
             next_in_cell: Vec::with_capacity(n),
             queue: VecDeque::with_capacity(n),
             support: Vec::with_capacity(1024),
@@ -172,6 +187,7 @@ impl TravMap {
             window: None,
             finished: 0,
             complete: false,
+            work: Cell::new(0),
             params,
         })
     }
@@ -266,7 +282,7 @@ impl TravMap {
     /// graph; allocates nothing while the node limit holds.
     pub fn build(&mut self, mls: &MlsMap, start: [f64; 3]) -> Result<BuildStats, BuildError> {
         self.begin(mls, start, None)?;
-        while !self.grow(mls, usize::MAX) {}
+        while !self.grow(mls, u64::MAX) {}
         Ok(self.stats)
     }
 
@@ -285,6 +301,7 @@ impl TravMap {
         self.queue.clear();
         self.finished = 0;
         self.complete = false;
+        self.work.set(0);
         self.stats = BuildStats::default();
         self.resolution = mls.params().resolution_m;
         self.window = window;
@@ -305,26 +322,48 @@ impl TravMap {
         Ok(())
     }
 
-    /// Classify and expand up to `units` nodes (or set the final classes
-    /// of as many); true once the graph is complete. `mls` should be the
-    /// map the growth began on: one that changes between slices (the
-    /// planner's, as keyframes arrive) gives a graph whose nodes were
-    /// classified on different states of it, still linked consistently.
-    pub fn grow(&mut self, mls: &MlsMap, units: usize) -> bool {
-        let mut left = units.max(1);
-        while left > 0 && !self.complete {
-            left -= 1;
+    /// Classify and expand nodes (then set their final classes) until
+    /// `work` units are spent, or the node under way is done; true once
+    /// the graph is complete. A unit is a cell read or a patch looked at
+    /// in it, [`FIT_POINTS_PER_UNIT`] points tested by a plane fit, a
+    /// fourth of setting a node's final class: a node among a cave wall's stacks of patches
+    /// costs several times one on open floor, and growth sliced by nodes
+    /// took from 0.2 to 1.6 ms a slice. The same map and start give the
+    /// same slices. `mls` should be the map the growth began on: one that
+    /// changes between slices (the planner's, as keyframes arrive) gives a
+    /// graph whose nodes were classified on different states of it, still
+    /// linked consistently.
+    pub fn grow(&mut self, mls: &MlsMap, work: u64) -> bool {
+        let until = self.work.get().saturating_add(work.max(1));
+        while self.work.get() < until && !self.complete {
             if let Some(i) = self.queue.pop_front() {
                 self.expand(mls, i);
             } else if self.finished < self.nodes.len() {
                 self.finish_class(self.finished);
                 self.finished += 1;
+                self.spend(FINISH_UNITS);
             } else {
-                self.count_classes();
+                self.stats.nodes = self.nodes.len();
                 self.complete = true;
             }
         }
         self.complete
+    }
+
+    /// Work units spent since the growth began.
+    pub fn work_done(&self) -> u64 {
+        self.work.get()
+    }
+
+    fn spend(&self, units: u64) {
+        self.work.set(self.work.get() + units);
+    }
+
+    /// The patches of a cell, counted as work.
+    fn cell<'m>(&self, mls: &'m MlsMap, ix: i32, iy: i32) -> &'m [Patch] {
+        let c = mls.cell(ix, iy);
+        self.spend(1 + c.len() as u64);
+        c
     }
 
     /// Whether the last growth is complete.
@@ -349,7 +388,7 @@ impl TravMap {
             if !self.in_window(jx, jy) {
                 continue;
             }
-            let cell = mls.cell(jx, jy);
+            let cell = self.cell(mls, jx, jy);
             let z = match ground_near(cell, n.patch_z, self.params.max_step_m) {
                 Some(z) => z,
                 // A wall or a drop seen there: no link, unless it is ground
@@ -402,7 +441,7 @@ impl TravMap {
     fn bridge(&self, mls: &MlsMap, n: &Node, d: (i32, i32)) -> Option<f32> {
         let cells = (self.params.max_gap_m / self.resolution).floor() as i32;
         for k in 2..=cells + 1 {
-            let cell = mls.cell(n.ix + k * d.0, n.iy + k * d.1);
+            let cell = self.cell(mls, n.ix + k * d.0, n.iy + k * d.1);
             let tol = self.params.max_step_m * k as f32;
             if let Some(g) = ground_near(cell, n.patch_z, tol) {
                 return Some(n.patch_z + (g - n.patch_z) / k as f32);
@@ -424,7 +463,7 @@ impl TravMap {
     fn top_of_tall(&self, mls: &MlsMap, n: &Node, d: (i32, i32)) -> Option<f32> {
         let step = self.params.max_step_m;
         let tall_top = |k: i32, z: f32| {
-            mls.cell(n.ix + k * d.0, n.iy + k * d.1)
+            self.cell(mls, n.ix + k * d.0, n.iy + k * d.1)
                 .iter()
                 .find(|q| q.kind == PatchKind::Vertical && (q.max - z).abs() <= step)
                 .map(|q| q.max)
@@ -432,7 +471,7 @@ impl TravMap {
         let first = tall_top(1, n.patch_z)?;
         let mut z = first;
         for k in 2..=TALL_CELLS + 1 {
-            if ground_near(mls.cell(n.ix + k * d.0, n.iy + k * d.1), z, step).is_some() {
+            if ground_near(self.cell(mls, n.ix + k * d.0, n.iy + k * d.1), z, step).is_some() {
                 return Some(first);
             }
             z = tall_top(k, z)?;
@@ -486,7 +525,7 @@ impl TravMap {
                     continue;
                 }
                 let (x, y) = (cx + dx as f64 * res, cy + dy as f64 * res);
-                let cell = mls.cell(n.ix + dx, n.iy + dy);
+                let cell = self.cell(mls, n.ix + dx, n.iy + dy);
                 if let Some(g) = ground_near(cell, n.patch_z, band) {
                     if self.support.len() < self.support.capacity() {
                         self.support.push([x, y, g as f64]);
@@ -508,6 +547,7 @@ impl TravMap {
             }
         }
         let seed = ((n.ix as u32 as u64) << 32 | n.iy as u32 as u64) ^ n.patch_z.to_bits() as u64;
+        self.spend((self.support.len() * p.ransac_iterations / FIT_POINTS_PER_UNIT) as u64);
         let fitted = plane::fit(
             &self.support,
             seed,
@@ -554,8 +594,8 @@ impl TravMap {
                 );
                 let g = pl.z_at(x, y) as f32;
                 let (lo, hi) = (g + p.ground_clearance_m, g + p.robot_height_m);
-                if mls
-                    .cell(ix + dx, iy + dy)
+                if self
+                    .cell(mls, ix + dx, iy + dy)
                     .iter()
                     .any(|q| q.solid_max() >= lo && q.min <= hi)
                 {
@@ -566,42 +606,32 @@ impl TravMap {
         false
     }
 
-    /// Frontier or explorable for node `i`, from its neighbourhood.
+    /// Frontier or explorable for node `i`, from its neighbourhood; its
+    /// final class counted.
     fn finish_class(&mut self, i: usize) {
         let n = self.nodes[i];
-        if n.class != TravClass::Traversable {
-            return;
-        }
-        let near_unknown = n
+        let class = if n.class != TravClass::Traversable {
+            n.class
+        } else if n.touches_unobserved {
+            TravClass::Frontier
+        } else if n
             .neighbours
             .iter()
-            .any(|&j| j != NONE && self.nodes[j as usize].class == TravClass::Unknown);
-        self.nodes[i].class = if n.touches_unobserved {
-            TravClass::Frontier
-        } else if near_unknown {
+            .any(|&j| j != NONE && self.nodes[j as usize].class == TravClass::Unknown)
+        {
             TravClass::Explorable
         } else {
             TravClass::Traversable
         };
-    }
-
-    /// The counts of a complete graph.
-    fn count_classes(&mut self) {
-        let mut s = BuildStats {
-            nodes: self.nodes.len(),
-            full: self.stats.full,
-            ..BuildStats::default()
-        };
-        for n in &self.nodes {
-            match n.class {
-                TravClass::Traversable => s.traversable += 1,
-                TravClass::Obstacle => s.obstacle += 1,
-                TravClass::Unknown => s.unknown += 1,
-                TravClass::Explorable => s.explorable += 1,
-                TravClass::Frontier => s.frontier += 1,
-            }
+        self.nodes[i].class = class;
+        let s = &mut self.stats;
+        match class {
+            TravClass::Traversable => s.traversable += 1,
+            TravClass::Obstacle => s.obstacle += 1,
+            TravClass::Unknown => s.unknown += 1,
+            TravClass::Explorable => s.explorable += 1,
+            TravClass::Frontier => s.frontier += 1,
         }
-        self.stats = s;
     }
 }
 

@@ -274,6 +274,15 @@ fn growth_in_slices_gives_the_whole_build_and_a_window_keeps_it_in() {
         assert!(!t.is_complete());
     }
     assert!(slices > 100, "{slices} slices");
+    // Slices end once their work is spent, within one node's work.
+    t.begin(&m, [3.0, 3.0, 0.09], None)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut done = t.work_done();
+    while !t.grow(&m, 1000) {
+        let slice = t.work_done() - done;
+        assert!((1000..1000 + 2500).contains(&slice), "{slice}");
+        done = t.work_done();
+    }
     assert_eq!(t.nodes(), whole.nodes());
     assert_eq!(t.stats(), whole.stats());
     // A 2 m window around the start: 2 m square of cells, nothing outside,

@@ -303,10 +303,13 @@ impl Task<Bus> for SlamTask {
             };
             if cpu_ns > SLOW_UNIT_NS {
                 // Which unit: the ones that grow with the map show here.
+                let (unknowns, factor_nonzeros) = self.slam.system_size();
                 tracing::debug!(
                     work,
                     cpu_us = cpu_ns / 1000,
                     keyframes = self.slam.keyframes().len(),
+                    unknowns,
+                    factor_nonzeros,
                     "slow SLAM unit"
                 );
             }
