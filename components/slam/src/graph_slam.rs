@@ -97,10 +97,7 @@ pub struct SlamParams {
     pub points_per_step: usize,
     /// Factors one step of Levenberg-Marquardt linearises or costs: with
     /// the factorisation in a step of its own, this bounds the time of an
-    /// optimisation step however large the active graph grows. 600: in
-    /// the lava mission, linearising 1000 took up to 2.5 ms of CPU (2.4 us
-    /// a factor), over the task's 2 ms, when factorising the whole system
-    /// (1,154 unknowns, 46,264 non-zeros in the factor) took 1.5 ms.
+    /// optimisation step however large the active graph grows.
     pub factors_per_step: usize,
     /// Estimate the IMU-to-LiDAR bias (else it is held at the identity).
     pub estimate_bias: bool,
@@ -138,7 +135,7 @@ impl Default for SlamParams {
             robust_scale: 3.0,
             iterations_per_keyframe: 6,
             points_per_step: 1200,
-            factors_per_step: 600,
+            factors_per_step: 1000,
             estimate_bias: true,
             bias_prior_deg: 1.0,
             gicp: GicpParams {
