@@ -58,6 +58,34 @@ fn two_levels_stay_apart_in_the_same_cells() {
 }
 
 #[test]
+fn a_cell_read_through_its_slot_is_the_cell_read_by_its_coordinates() {
+    let mut m = map(MlsParams::default());
+    m.insert_points(&two_level_scene());
+    for (ix, iy) in [
+        (0, 0),
+        (12, 30),
+        (39, 39),
+        (40, 5),
+        (41, 5),
+        (-1, 0),
+        (500, 500),
+    ] {
+        m.prefetch_cell(ix, iy);
+        let read = m.cell_slot(ix, iy).map_or(&[][..], |s| m.patches_at(s));
+        assert_eq!(read, m.cell(ix, iy), "cell ({ix}, {iy})");
+        assert_eq!(m.cell_slot(ix, iy).is_some(), !m.cell(ix, iy).is_empty());
+    }
+    // A slot of a larger map is none of a smaller one's: no patches, no
+    // panic.
+    let small = map(MlsParams {
+        max_cells: 4,
+        ..MlsParams::default()
+    });
+    let far = m.cell_slot(39, 39).expect("a known cell");
+    assert!(small.patches_at(far).is_empty());
+}
+
+#[test]
 fn a_wall_becomes_vertical_patches() {
     let mut m = map(MlsParams::default());
     m.insert_points(&two_level_scene());

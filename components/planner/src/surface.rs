@@ -382,13 +382,28 @@ impl SurfaceLattice {
     fn copy_solid(&mut self, mls: &MlsMap, from: usize) -> Prep {
         let cells = self.dims.0 * self.dims.1;
         let to = (from + SOLID_PER_UNIT).min(cells);
-        for c in from..to {
-            let (ix, iy) = (
+        let at = |c: usize| {
+            (
                 self.origin.0 + (c % self.dims.0) as i32,
                 self.origin.1 + (c / self.dims.0) as i32,
-            );
+            )
+        };
+        // The unit's cells looked up together, their table slots and then
+        // their patches prefetched first: one at a time, each lookup
+        // waited on a cache miss.
+        for c in from..to {
+            let (ix, iy) = at(c);
+            mls.prefetch_cell(ix, iy);
+        }
+        let mut slots = [None; SOLID_PER_UNIT];
+        for (slot, c) in slots.iter_mut().zip(from..to) {
+            let (ix, iy) = at(c);
+            *slot = mls.cell_slot(ix, iy);
+        }
+        for slot in &slots[..to - from] {
+            let patches = slot.map_or(&[][..], |s| mls.patches_at(s));
             let mut row = [f32::NAN; 2 * SOLID_PER_CELL];
-            for (k, q) in mls.cell(ix, iy).iter().enumerate() {
+            for (k, q) in patches.iter().enumerate() {
                 let at = 2 * k.min(SOLID_PER_CELL - 1);
                 if k < SOLID_PER_CELL {
                     row[at] = q.min;

@@ -9,6 +9,7 @@
 //! - [`plane`]: the deterministic RANSAC support plane.
 //! - [`map`]: the graph, its growth, classes and queries.
 
+mod cell_heads;
 pub mod map;
 pub mod params;
 pub mod plane;

@@ -19,13 +19,12 @@
 //! - *traversable*: the rest.
 
 use std::cell::Cell;
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 
-use foldhash::fast::FixedState;
-
-use speleo_mapping::mls::{drop_at, ground_near, MlsMap, Patch, PatchKind};
+use speleo_mapping::mls::{drop_at, ground_near, CellSlot, MlsMap, Patch, PatchKind};
 use thiserror::Error;
 
+use crate::cell_heads::CellHeads;
 use crate::params::TravParams;
 use crate::plane;
 
@@ -126,15 +125,17 @@ pub struct TravMap {
     resolution: f64,
     nodes: Vec<Node>,
     /// First node of each cell; the others follow through `next_in_cell`.
-    /// Hashed with a fixed seed, and fast: the lookups were a tenth of a
-    /// growth's time with the standard library's keyed hash.
-    by_cell: HashMap<(i32, i32), u32, FixedState>,
+    by_cell: CellHeads,
     next_in_cell: Vec<u32>,
     queue: VecDeque<u32>,
     /// Scratch: the support points of one footprint, and their heights
     /// on the footprint's square grid (NaN where none).
     support: Vec<[f64; 3]>,
     heights: Vec<f32>,
+    /// Scratch: the map's slots of the footprint's cells around the node
+    /// under way, on the same square grid (see [`Footprint`]).
+    foot: Vec<Looked>,
+    footprint: Option<Footprint>,
     stats: BuildStats,
     /// The growth is kept to these cells.
     window: Option<Window>,
@@ -143,6 +144,23 @@ pub struct TravMap {
     complete: bool,
     /// Work done since the growth began (see [`grow`](Self::grow)).
     work: Cell<u64>,
+}
+
+/// The node whose footprint `TravMap::foot` holds, and its reach in cells.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Footprint {
+    ix: i32,
+    iy: i32,
+    reach: i32,
+}
+
+/// A footprint cell's lookup in the map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Looked {
+    /// Outside the footprint's circle: not looked up.
+    No,
+    Unknown,
+    At(CellSlot),
 }
 
 /// A rectangle of cells, inclusive.
@@ -178,11 +196,13 @@ impl TravMap {
         Ok(TravMap {
             resolution: 0.1,
             nodes: Vec::with_capacity(n),
-            by_cell: HashMap::with_capacity_and_hasher(n, FixedState::with_seed(0)),
+            by_cell: CellHeads::new(n, params.max_window_cells),
             next_in_cell: Vec::with_capacity(n),
             queue: VecDeque::with_capacity(n),
             support: Vec::with_capacity(1024),
             heights: Vec::with_capacity(1024),
+            foot: Vec::with_capacity(1024),
+            footprint: None,
             stats: BuildStats::default(),
             window: None,
             finished: 0,
@@ -223,7 +243,7 @@ impl TravMap {
 
     /// The nodes of cell `(ix, iy)`.
     pub fn nodes_in_cell(&self, ix: i32, iy: i32) -> impl Iterator<Item = u32> + '_ {
-        let mut i = self.by_cell.get(&(ix, iy)).copied().unwrap_or(NONE);
+        let mut i = self.by_cell.get(ix, iy);
         std::iter::from_fn(move || {
             if i == NONE {
                 return None;
@@ -259,7 +279,7 @@ impl TravMap {
         let mut marked = 0;
         for iy in cy - r..=cy + r {
             for ix in cx - r..=cx + r {
-                let mut i = self.by_cell.get(&(ix, iy)).copied().unwrap_or(NONE);
+                let mut i = self.by_cell.get(ix, iy);
                 while i != NONE {
                     let p = self.position(&self.nodes[i as usize]);
                     let near = (p[0] - at[0]).hypot(p[1] - at[1]) <= radius_m
@@ -296,12 +316,13 @@ impl TravMap {
         window: Option<Window>,
     ) -> Result<(), BuildError> {
         self.nodes.clear();
-        self.by_cell.clear();
+        self.by_cell.reset(window);
         self.next_in_cell.clear();
         self.queue.clear();
         self.finished = 0;
         self.complete = false;
         self.work.set(0);
+        self.footprint = None;
         self.stats = BuildStats::default();
         self.resolution = mls.params().resolution_m;
         self.window = window;
@@ -366,6 +387,61 @@ impl TravMap {
         c
     }
 
+    /// Look up the cells within `r2` (cells², squared) of `(ix, iy)` in
+    /// the map together: every table slot is prefetched before the first
+    /// is read, and every cell's patches before any is used. One at a
+    /// time, each lookup missed the caches (the map is tens of megabytes)
+    /// and growth spent most of its time waiting on them.
+    fn fetch_footprint(&mut self, mls: &MlsMap, ix: i32, iy: i32, reach: i32, r2: f64) {
+        let side = (2 * reach + 1) as usize;
+        let inside = |dx: i32, dy: i32| ((dx * dx + dy * dy) as f64) <= r2;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if inside(dx, dy) {
+                    mls.prefetch_cell(ix + dx, iy + dy);
+                }
+            }
+        }
+        self.foot.clear();
+        self.foot.resize(side * side, Looked::No);
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if inside(dx, dy) {
+                    let at = mls.cell_slot(ix + dx, iy + dy);
+                    self.foot[(dy + reach) as usize * side + (dx + reach) as usize] =
+                        at.map_or(Looked::Unknown, Looked::At);
+                }
+            }
+        }
+        self.footprint = Some(Footprint { ix, iy, reach });
+    }
+
+    /// The patches of cell `(ix, iy)`, counted as work as
+    /// [`cell`](Self::cell) counts them: from the footprint fetched last
+    /// when it holds the cell, from the map otherwise.
+    fn near_cell<'m>(&self, mls: &'m MlsMap, ix: i32, iy: i32) -> &'m [Patch] {
+        let looked = self.footprint.and_then(|f| {
+            let (dx, dy) = (ix - f.ix, iy - f.iy);
+            if dx.abs() > f.reach || dy.abs() > f.reach {
+                return None;
+            }
+            let side = (2 * f.reach + 1) as usize;
+            Some(self.foot[(dy + f.reach) as usize * side + (dx + f.reach) as usize])
+        });
+        match looked {
+            Some(Looked::At(slot)) => {
+                let c = mls.patches_at(slot);
+                self.spend(1 + c.len() as u64);
+                c
+            }
+            Some(Looked::Unknown) => {
+                self.spend(1);
+                &[]
+            }
+            Some(Looked::No) | None => self.cell(mls, ix, iy),
+        }
+    }
+
     /// Whether the last growth is complete.
     pub fn is_complete(&self) -> bool {
         self.complete
@@ -381,6 +457,7 @@ impl TravMap {
         self.classify(mls, i);
         let n = self.nodes[i as usize];
         if !n.class.is_drivable() {
+            self.footprint = None;
             return;
         }
         for (k, (dx, dy)) in NEIGHBOURS.iter().enumerate() {
@@ -388,7 +465,7 @@ impl TravMap {
             if !self.in_window(jx, jy) {
                 continue;
             }
-            let cell = self.cell(mls, jx, jy);
+            let cell = self.near_cell(mls, jx, jy);
             let z = match ground_near(cell, n.patch_z, self.params.max_step_m) {
                 Some(z) => z,
                 // A wall or a drop seen there: no link, unless it is ground
@@ -424,6 +501,9 @@ impl TravMap {
             self.nodes[i as usize].neighbours[k] = j;
             self.nodes[j as usize].neighbours[(k + 4) % 8] = i;
         }
+        // The next node is looked up anew, perhaps in another call (and
+        // map).
+        self.footprint = None;
     }
 
     /// The node of a cell at a height (within a step: patches of one cell
@@ -495,7 +575,7 @@ impl TravMap {
             neighbours: [NONE; 8],
             touches_unobserved: false,
         });
-        let head = self.by_cell.insert((ix, iy), i).unwrap_or(NONE);
+        let head = self.by_cell.push_front(ix, iy, i);
         self.next_in_cell.push(head);
         Some(i)
     }
@@ -517,6 +597,8 @@ impl TravMap {
         self.support.clear();
         self.heights.clear();
         self.heights.resize(side * side, f32::NAN);
+        self.fetch_footprint(mls, n.ix, n.iy, reach, r2);
+        let p = &self.params;
         let mut raised = false;
         let mut drops = 0usize;
         for dy in -reach..=reach {
@@ -525,7 +607,7 @@ impl TravMap {
                     continue;
                 }
                 let (x, y) = (cx + dx as f64 * res, cy + dy as f64 * res);
-                let cell = self.cell(mls, n.ix + dx, n.iy + dy);
+                let cell = self.near_cell(mls, n.ix + dx, n.iy + dy);
                 if let Some(g) = ground_near(cell, n.patch_z, band) {
                     if self.support.len() < self.support.capacity() {
                         self.support.push([x, y, g as f64]);
@@ -595,7 +677,7 @@ impl TravMap {
                 let g = pl.z_at(x, y) as f32;
                 let (lo, hi) = (g + p.ground_clearance_m, g + p.robot_height_m);
                 if self
-                    .cell(mls, ix + dx, iy + dy)
+                    .near_cell(mls, ix + dx, iy + dy)
                     .iter()
                     .any(|q| q.solid_max() >= lo && q.min <= hi)
                 {

@@ -29,6 +29,11 @@ pub struct TravParams {
     pub ransac_iterations: usize,
     /// Most patches the map holds.
     pub max_nodes: usize,
+    /// Cells of the largest growth window: their nodes are indexed on a
+    /// dense grid (4 bytes a cell, taken at construction), which keeps
+    /// growth's lookups in the caches. Larger windows, and growth without
+    /// one, hash their cells.
+    pub max_window_cells: usize,
 }
 
 impl Default for TravParams {
@@ -52,6 +57,7 @@ impl Default for TravParams {
             inlier_distance_m: 0.04,
             ransac_iterations: 24,
             max_nodes: 1 << 20,
+            max_window_cells: 0,
         }
     }
 }

@@ -107,6 +107,26 @@ fn refine(points: &[[f64; 3]], abc: (f64, f64, f64), tol: f64, o: [f64; 2]) -> O
     })
 }
 
+/// The inliers of plane `abc` among `points` if they are more than
+/// `to_beat`. The count stops once the points left cannot make up the
+/// difference: on a footprint of flat floor the first triple takes nearly
+/// every point, and most later ones fall behind within a few points.
+fn consensus(
+    points: &[[f64; 3]],
+    abc: (f64, f64, f64),
+    tol: f64,
+    to_beat: Option<usize>,
+) -> Option<usize> {
+    let mut count = 0;
+    for (k, p) in points.iter().enumerate() {
+        count += ((p[2] - (abc.0 * p[0] + abc.1 * p[1] + abc.2)).abs() <= tol) as usize;
+        if to_beat.is_some_and(|b| count + (points.len() - 1 - k) <= b) {
+            return None;
+        }
+    }
+    Some(count)
+}
+
 /// The support plane of `points` (x, y, z), or `None` when no plane has
 /// `min_inliers` within `tol`.
 pub fn fit(
@@ -127,13 +147,10 @@ pub fn fit(
         let Some(abc) = through(points[i], points[j], points[k]) else {
             continue;
         };
-        let count = points
-            .iter()
-            .filter(|p| (p[2] - (abc.0 * p[0] + abc.1 * p[1] + abc.2)).abs() <= tol)
-            .count();
-        if best.is_none_or(|(_, c)| count > c) {
-            best = Some((abc, count));
-        }
+        let Some(count) = consensus(points, abc, tol, best.map(|(_, c)| c)) else {
+            continue;
+        };
+        best = Some((abc, count));
     }
     let (abc, count) = best?;
     if count < min_inliers {
@@ -146,6 +163,34 @@ pub fn fit(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_consensus_stops_early_only_for_triples_that_cannot_win() {
+        let mut rng = SplitMix(3);
+        let mut unit = || (rng.next() >> 11) as f64 / (1u64 << 53) as f64;
+        for round in 0..200 {
+            let pts: Vec<[f64; 3]> = (0..49)
+                .map(|k| {
+                    let (x, y) = ((k % 7) as f64 * 0.1, (k / 7) as f64 * 0.1);
+                    let rock = if unit() < 0.3 { 0.2 * unit() } else { 0.0 };
+                    [x, y, 0.1 * x + 0.01 * unit() + rock]
+                })
+                .collect();
+            let (abc, tol) = ((0.1, 0.0, 0.005), 0.01);
+            let full = pts
+                .iter()
+                .filter(|p| (p[2] - (abc.0 * p[0] + abc.1 * p[1] + abc.2)).abs() <= tol)
+                .count();
+            for to_beat in [None, Some(0), Some(full - 1), Some(full), Some(49)] {
+                let want = to_beat.is_none_or(|b| full > b).then_some(full);
+                assert_eq!(
+                    consensus(&pts, abc, tol, to_beat),
+                    want,
+                    "{round} {to_beat:?}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn a_tilted_plane_is_found_despite_a_rock() {

@@ -303,6 +303,56 @@ fn growth_in_slices_gives_the_whole_build_and_a_window_keeps_it_in() {
         .is_err_and(|e| e.to_string().contains("no ground patch")));
 }
 
+#[test]
+fn a_window_indexed_on_a_grid_grows_the_graph_the_hashed_index_grows() {
+    let mut m = mls();
+    surface(&mut m, (0.0, 6.0), (0.0, 4.0), |x, y| {
+        0.05 * (x * 3.0).sin() + 0.03 * y
+    });
+    block(&mut m, (2.0, 2.3), (1.0, 1.3), (0.0, 0.5));
+    // A floor over the first one, reached by nothing: its cells hold a
+    // second head only if the first level's growth were to reach it.
+    surface(&mut m, (2.5, 4.0), (2.5, 3.5), |_, _| 1.5);
+    let w = Window::around(3.0, 3.0, 2.0, 0.1);
+    let grow = |max_window_cells| {
+        let mut t = TravMap::new(TravParams {
+            max_window_cells,
+            ..TravParams::default()
+        })
+        .unwrap_or_else(|e| panic!("{e}"));
+        t.begin(&m, [3.0, 3.0, 0.09], Some(w))
+            .unwrap_or_else(|e| panic!("{e}"));
+        while !t.grow(&m, 300) {}
+        t
+    };
+    let hashed = grow(0);
+    let grid = grow(w.cells());
+    assert!(hashed.stats().nodes > 1000, "{:?}", hashed.stats());
+    assert_eq!(grid.nodes(), hashed.nodes());
+    assert_eq!(grid.stats(), hashed.stats());
+    assert_eq!(grid.work_done(), hashed.work_done());
+    for (x, y) in [(3.0, 3.0), (1.05, 1.55), (4.95, 4.95), (2.15, 1.15)] {
+        assert_eq!(
+            grid.node_at(x, y, 0.1, 0.3),
+            hashed.node_at(x, y, 0.1, 0.3),
+            "({x}, {y})"
+        );
+    }
+    // The same grid storage takes a smaller window, and hashes a larger.
+    let mut t = grow(w.cells());
+    for half in [0.5, 3.0] {
+        let w = Window::around(3.0, 3.0, half, 0.1);
+        t.begin(&m, [3.0, 3.0, 0.09], Some(w))
+            .unwrap_or_else(|e| panic!("{e}"));
+        while !t.grow(&m, 300) {}
+        let mut h = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+        h.begin(&m, [3.0, 3.0, 0.09], Some(w))
+            .unwrap_or_else(|e| panic!("{e}"));
+        while !h.grow(&m, 300) {}
+        assert_eq!(t.nodes(), h.nodes(), "half {half} m");
+    }
+}
+
 /// The garage's ramp is a 0.25 m slab rising at 14 degrees from the floor:
 /// a metre from its foot its underside leaves the floor, and a rover
 /// beside it sees the floor under it through the widening gap. The ramp

@@ -228,7 +228,12 @@ impl PlannerTask {
         looped: bool,
         base_height_m: f64,
     ) -> Result<Self, String> {
-        let trav = TravMap::new(cfg.trav_params()).map_err(|e| e.to_string())?;
+        let side = (cfg.window_max_m / resolution_m).ceil() as usize + 2;
+        let trav = TravMap::new(speleo_traversability::TravParams {
+            max_window_cells: side * side,
+            ..cfg.trav_params()
+        })
+        .map_err(|e| e.to_string())?;
         let grid_cells = cfg.window_cells(resolution_m);
         let lat = SurfaceLattice::new(trav, prims, cfg.surface_params(), grid_cells)?;
         if (prims.resolution_m - resolution_m).abs() > 1e-6 * resolution_m {
@@ -291,7 +296,9 @@ impl PlannerTask {
         // Per node: the graph's node (~72), index links and the lattice's
         // per-node arrays (~20), eight queue entries (8 each); per cell of
         // the window, the map table's intervals.
-        search + max_nodes * (72 + 20 + 64) + self.grid_cells * 8 * SOLID_PER_CELL
+        // The graph's heads over its window, 4 bytes a cell.
+        let heads = self.lat.trav().params().max_window_cells * 4;
+        search + max_nodes * (72 + 20 + 64) + self.grid_cells * 8 * SOLID_PER_CELL + heads
     }
 
     /// Begin a query if one is due and possible.

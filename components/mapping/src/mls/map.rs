@@ -174,6 +174,12 @@ pub struct MlsMap {
     totals: InsertStats,
 }
 
+/// A known cell's place in the map's arrays: [`MlsMap::cell_slot`] gives
+/// it, [`MlsMap::patches_at`] reads the patches without looking the cell
+/// up again.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CellSlot(u32);
+
 impl MlsMap {
     /// Takes all the memory the map will ever use. Fails only on a
     /// non-positive resolution or a negative gap, threshold or noise; zero
@@ -429,6 +435,43 @@ impl MlsMap {
     fn patches_of(&self, c: usize) -> &[Patch] {
         let base = c * self.stride;
         &self.patches[base..base + self.lens[c] as usize]
+    }
+
+    /// Asks for the cache line where the lookup of cell `(ix, iy)` begins:
+    /// a hint without effect on any result. Readers of many cells at once
+    /// (the traversability graph's footprints) prefetch them all first, so
+    /// that the table's cache misses overlap instead of queueing.
+    #[inline(always)]
+    pub fn prefetch_cell(&self, ix: i32, iy: i32) {
+        self.index.prefetch(self.index.home(ix, iy));
+    }
+
+    /// Where the patches of cell `(ix, iy)` are kept, if it is known; its
+    /// patches are prefetched. The slot stays valid until the map changes
+    /// (the `&self` borrow sees to that within one call of the reader).
+    #[inline(always)]
+    pub fn cell_slot(&self, ix: i32, iy: i32) -> Option<CellSlot> {
+        let c = self.index.get(ix, iy)?;
+        let base = c as usize * self.stride;
+        prefetch(&self.lens[c as usize]);
+        // A cell's patches span two or three cache lines.
+        for p in [base, base + self.stride.saturating_sub(1)] {
+            if let Some(q) = self.patches.get(p) {
+                prefetch(q);
+            }
+        }
+        Some(CellSlot(c))
+    }
+
+    /// The patches of the cell at `slot` (see [`MlsMap::cell_slot`]), lowest
+    /// first; none for a slot this map does not have.
+    #[inline(always)]
+    pub fn patches_at(&self, slot: CellSlot) -> &[Patch] {
+        if (slot.0 as usize) < self.max_cells {
+            self.patches_of(slot.0 as usize)
+        } else {
+            &[]
+        }
     }
 
     /// Calls `f(ix, iy, patches)` for every known cell whose centre's cell

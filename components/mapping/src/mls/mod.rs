@@ -13,5 +13,7 @@ mod index;
 mod map;
 mod patch;
 
-pub use map::{InsertStats, MlsMap, MlsParams, MlsStats, MAX_CELLS, MAX_PATCHES_PER_CELL};
+pub use map::{
+    CellSlot, InsertStats, MlsMap, MlsParams, MlsStats, MAX_CELLS, MAX_PATCHES_PER_CELL,
+};
 pub use patch::{drop_at, ground_near, Patch, PatchKind, SLAB_GAP_M, TOP_BAND_M};
