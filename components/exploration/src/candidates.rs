@@ -254,6 +254,11 @@ impl CandidateScan {
             }
             None => false,
         };
+        // Where a full graph stopped (the node limit, not the map), as at
+        // the window's border: at the garage's roof ramp the graph filled
+        // up over the levels below before it reached the roof's frontier,
+        // and no candidate was left.
+        let at_border = at_border || n.cut;
         let border_class = matches!(n.class, TravClass::Frontier | TravClass::Explorable);
         // Ground the graph reaches on another level than the rover drove
         // there: the upper part of a ramp driven under, whose far end the

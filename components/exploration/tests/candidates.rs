@@ -132,6 +132,35 @@ fn a_window_that_cuts_the_corridor_gives_candidates_just_inside_its_border() {
     assert!(s.best()[0].position[0] > 6.7, "{:?}", s.best()[0]);
 }
 
+#[test]
+fn where_a_full_graph_stopped_the_patches_are_candidates_as_at_a_border() {
+    let mut m = MlsMap::new(MlsParams::default()).expect("mls");
+    points(&mut m, (-1.0, 12.0), (-1.5, 1.5), (0.0, 0.0));
+    points(&mut m, (-1.0, 12.0), (-1.7, -1.5), (0.0, 1.5));
+    points(&mut m, (-1.0, 12.0), (1.5, 1.7), (0.0, 1.5));
+    points(&mut m, (-1.2, -1.0), (-1.7, 1.7), (0.0, 1.5));
+    // Room for the corridor's first 5 m or so.
+    let mut t = TravMap::new(TravParams {
+        max_nodes: 1800,
+        ..TravParams::default()
+    })
+    .expect("trav");
+    let s = t.build(&m, [0.0, 0.0, 0.0]).expect("build");
+    assert!(s.full, "{s:?}");
+    let cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    let best = scan(&t, &cov, &[], 100);
+    // The graph ends about 5 m on, well before the corridor's open end:
+    // the way on is there.
+    assert!(!best.is_empty());
+    let reach = t
+        .nodes()
+        .iter()
+        .map(|n| t.position(n)[0])
+        .fold(f64::MIN, f64::max);
+    assert!(reach < 8.0, "{reach}");
+    assert!(best[0].position[0] > reach - 1.0, "{:?}", best[0]);
+}
+
 /// A room 4 m long, then a squeeze 1 m wide (the body just fits) seen to
 /// x = 6 m: beyond it nothing was seen.
 fn squeeze() -> TravMap {

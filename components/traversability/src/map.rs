@@ -96,6 +96,9 @@ pub struct Node {
     pub neighbours: [u32; 8],
     /// Some neighbouring cell has nothing near this height.
     pub touches_unobserved: bool,
+    /// The node limit refused a neighbour of it: a full graph stops here,
+    /// the map does not (like a growth window's border).
+    pub cut: bool,
 }
 
 #[derive(Debug, Error, PartialEq)]
@@ -494,6 +497,7 @@ impl TravMap {
                     }
                     None => {
                         self.stats.full = true;
+                        self.nodes[i as usize].cut = true;
                         continue;
                     }
                 },
@@ -574,6 +578,7 @@ impl TravMap {
             normal: [0.0, 0.0, 1.0],
             neighbours: [NONE; 8],
             touches_unobserved: false,
+            cut: false,
         });
         let head = self.by_cell.push_front(ix, iy, i);
         self.next_in_cell.push(head);

@@ -251,6 +251,18 @@ fn the_same_map_gives_the_same_graph_and_a_full_graph_says_so() {
         .build(&m, [3.0, 3.0, 0.09])
         .unwrap_or_else(|e| panic!("{e}"));
     assert!(s.full && s.nodes == 100, "{s:?}");
+    // Where the limit stopped the growth is marked, and only there: the
+    // outermost nodes expanded, around the start.
+    assert!(a.nodes().iter().all(|n| !n.cut));
+    let cut: Vec<_> = small.nodes().iter().filter(|n| n.cut).collect();
+    assert!(!cut.is_empty());
+    let d = |n: &speleo_traversability::Node| {
+        let p = small.position(n);
+        (p[0] - 3.05).hypot(p[1] - 3.05)
+    };
+    let nearest_cut = cut.iter().map(|n| d(n)).fold(f64::INFINITY, f64::min);
+    assert!(nearest_cut > 0.25, "{nearest_cut}");
+    assert!(small.nodes().iter().filter(|n| !n.cut).all(|n| d(n) < 0.75));
     assert!(
         small.build(&m, [30.0, 3.0, 0.0]).is_err(),
         "no ground at the start"

@@ -1020,6 +1020,9 @@ impl Task<Bus> for PlannerTask {
             }
             None => quantum.max(1),
         };
+        // The lattice's own stage (map copy, room, cost-to-go) when a step
+        // begins, for the slow-step log.
+        let lattice = self.lat.phase();
         let started = std::time::Instant::now();
         let cpu0 = thread_cpu_ns();
         let went_on = self.work(bus, cx, units);
@@ -1031,7 +1034,7 @@ impl Task<Bus> for PlannerTask {
             if cpu_ns > SLOW_STEP_NS {
                 // Which phase, and whether the step ended it: what a
                 // calibration by units cannot see.
-                tracing::debug!(phase = PHASE_NAMES[i], units, cpu_us = cpu_ns / 1000, wall_us = wall_ns / 1000, next = ?self.phase.timed_index().map(|j| PHASE_NAMES[j]), "slow planner step");
+                tracing::debug!(phase = PHASE_NAMES[i], lattice, units, cpu_us = cpu_ns / 1000, wall_us = wall_ns / 1000, next = ?self.phase.timed_index().map(|j| PHASE_NAMES[j]), "slow planner step");
             }
         }
         if !went_on || self.phase == Phase::Idle {
