@@ -715,7 +715,16 @@ pub fn run<C: FrameClock>(
         let mut f = ef::onboard(e, &t_control.counters);
         let home = e.explorer.home();
         let ground = [home[0], home[1], home[2] - base_height_m(cfg)];
-        explored = ef::reachable(bus.surface.serving(), ground, &cfg.planner.trav_params());
+        let (mls, tp) = (bus.surface.serving(), cfg.planner.trav_params());
+        explored = ef::reachable(mls, ground, &tp).or_else(|| {
+            // A full map drops what lies farthest from the rover: one that
+            // ended far from home (stranded on the garage's third ramp)
+            // may hold no ground there any more. What it reaches from
+            // where the rover stands is then the explored area.
+            let p = bus.slam.get()?.value.position;
+            tracing::info!("no ground at home in the final map: the explored area grown from the rover");
+            ef::reachable(mls, [p[0], p[1], p[2] - base_height_m(cfg)], &tp)
+        });
         f.explored_area_m2 = explored.as_ref().map_or(0.0, ef::drivable_area_m2);
         if m.truth.is_some() {
             let s = &track.samples;

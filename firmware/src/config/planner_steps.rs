@@ -26,16 +26,19 @@ pub const MAX_STEP_UNITS: u32 = 1024;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlannerStepUnits {
-    /// Units growing the traversability graph (2 nodes each).
+    /// Units growing the traversability graph (800 of its work each: cells
+    /// and patches read, points a plane fit tests; about two nodes).
     pub grow: u32,
     /// Units scanning nodes for the start and the goal (128 nodes each).
     pub pick: u32,
-    /// Units scoring exploration candidates (8 each).
+    /// Units scanning for exploration candidates (128 nodes looked at or
+    /// cells looked up each).
     pub candidates: u32,
     /// Units preparing the lattice (cells copied, rooms checked, cost-to-go
     /// pops).
     pub prepare: u32,
-    /// ARA* expansions.
+    /// ARA* work (1,024 lattice steps and footprint cells each, about an
+    /// expansion on open ground).
     pub search: u32,
     /// Internal simulator units (256 points integrated, a tile meshed, a
     /// sixth of a physics step).
