@@ -722,7 +722,9 @@ pub fn run<C: FrameClock>(
             // may hold no ground there any more. What it reaches from
             // where the rover stands is then the explored area.
             let p = bus.slam.get()?.value.position;
-            tracing::info!("no ground at home in the final map: the explored area grown from the rover");
+            tracing::info!(
+                "no ground at home in the final map: the explored area grown from the rover"
+            );
             ef::reachable(mls, [p[0], p[1], p[2] - base_height_m(cfg)], &tp)
         });
         f.explored_area_m2 = explored.as_ref().map_or(0.0, ef::drivable_area_m2);
