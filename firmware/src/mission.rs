@@ -716,7 +716,11 @@ pub fn run<C: FrameClock>(
         let home = e.explorer.home();
         let ground = [home[0], home[1], home[2] - base_height_m(cfg)];
         let (mls, tp) = (bus.surface.serving(), cfg.planner.trav_params());
-        explored = ef::reachable(mls, ground, &tp).or_else(|| {
+        let from_home = ef::reachable(mls, ground, &tp);
+        // A graph from home with nothing drivable in it is what is left of
+        // home's ground, not the explored area.
+        let from_home = from_home.filter(|t| ef::drivable_area_m2(t) > 0.0);
+        explored = from_home.or_else(|| {
             // A full map drops what lies farthest from the rover: one that
             // ended far from home (stranded on the garage's third ramp)
             // may hold no ground there any more. What it reaches from
