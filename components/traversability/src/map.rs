@@ -35,6 +35,9 @@ pub const NONE: u32 = u32::MAX;
 /// 0.1 m cells) looks the same and is crossed too: less than the
 /// leg-wheels' 0.38 m diameter.
 const TALL_CELLS: i32 = 3;
+/// Cells of a line out of a node looked up together (see
+/// `TravMap::fetch_line`): a 0.6 m gap bridged at 0.1 m cells.
+const LINE_CELLS: usize = 8;
 
 /// The 8 neighbours, counter-clockwise from +x.
 pub const NEIGHBOURS: [(i32, i32); 8] = [
@@ -423,15 +426,7 @@ impl TravMap {
     /// [`cell`](Self::cell) counts them: from the footprint fetched last
     /// when it holds the cell, from the map otherwise.
     fn near_cell<'m>(&self, mls: &'m MlsMap, ix: i32, iy: i32) -> &'m [Patch] {
-        let looked = self.footprint.and_then(|f| {
-            let (dx, dy) = (ix - f.ix, iy - f.iy);
-            if dx.abs() > f.reach || dy.abs() > f.reach {
-                return None;
-            }
-            let side = (2 * f.reach + 1) as usize;
-            Some(self.foot[(dy + f.reach) as usize * side + (dx + f.reach) as usize])
-        });
-        match looked {
+        match self.footprint_looked(ix, iy) {
             Some(Looked::At(slot)) => {
                 let c = mls.patches_at(slot);
                 self.spend(1 + c.len() as u64);
@@ -442,6 +437,80 @@ impl TravMap {
                 &[]
             }
             Some(Looked::No) | None => self.cell(mls, ix, iy),
+        }
+    }
+
+    /// The footprint's lookup of cell `(ix, iy)`; None outside its square.
+    fn footprint_looked(&self, ix: i32, iy: i32) -> Option<Looked> {
+        let f = self.footprint?;
+        let (dx, dy) = (ix - f.ix, iy - f.iy);
+        if dx.abs() > f.reach || dy.abs() > f.reach {
+            return None;
+        }
+        let side = (2 * f.reach + 1) as usize;
+        Some(self.foot[(dy + f.reach) as usize * side + (dx + f.reach) as usize])
+    }
+
+    /// Look up together the cells `1..=k_max` steps from `n` in
+    /// direction `d` (at most [`LINE_CELLS`]) that the footprint fetched
+    /// last does not hold: the lines [`bridge`](Self::bridge) and
+    /// [`top_of_tall`](Self::top_of_tall) walk reach up to seven cells
+    /// out, and one lookup at a time each missed the caches. Work is
+    /// counted as the cells are read, not here.
+    fn fetch_line(
+        &self,
+        mls: &MlsMap,
+        n: &Node,
+        d: (i32, i32),
+        k_max: i32,
+    ) -> [Looked; LINE_CELLS] {
+        let mut line = [Looked::No; LINE_CELLS];
+        let k_max = k_max.min(LINE_CELLS as i32);
+        let held = |k: i32| {
+            self.footprint_looked(n.ix + k * d.0, n.iy + k * d.1)
+                .is_some_and(|l| l != Looked::No)
+        };
+        for k in 1..=k_max {
+            if !held(k) {
+                mls.prefetch_cell(n.ix + k * d.0, n.iy + k * d.1);
+            }
+        }
+        for k in 1..=k_max {
+            if !held(k) {
+                let at = mls.cell_slot(n.ix + k * d.0, n.iy + k * d.1);
+                line[k as usize - 1] = at.map_or(Looked::Unknown, Looked::At);
+            }
+        }
+        line
+    }
+
+    /// The patches of the cell `k` steps from `n` in direction `d`, read
+    /// as [`near_cell`](Self::near_cell) reads them: from `line` (see
+    /// [`fetch_line`](Self::fetch_line)) when it holds the cell.
+    fn line_cell<'m>(
+        &self,
+        mls: &'m MlsMap,
+        line: &[Looked; LINE_CELLS],
+        n: &Node,
+        d: (i32, i32),
+        k: i32,
+    ) -> &'m [Patch] {
+        let looked = usize::try_from(k - 1)
+            .ok()
+            .and_then(|i| line.get(i))
+            .copied()
+            .unwrap_or(Looked::No);
+        match looked {
+            Looked::At(slot) => {
+                let c = mls.patches_at(slot);
+                self.spend(1 + c.len() as u64);
+                c
+            }
+            Looked::Unknown => {
+                self.spend(1);
+                &[]
+            }
+            Looked::No => self.near_cell(mls, n.ix + k * d.0, n.iy + k * d.1),
         }
     }
 
@@ -524,8 +593,9 @@ impl TravMap {
     /// support plane of the bridged node must still fit real points.
     fn bridge(&self, mls: &MlsMap, n: &Node, d: (i32, i32)) -> Option<f32> {
         let cells = (self.params.max_gap_m / self.resolution).floor() as i32;
+        let line = self.fetch_line(mls, n, d, cells + 1);
         for k in 2..=cells + 1 {
-            let cell = self.cell(mls, n.ix + k * d.0, n.iy + k * d.1);
+            let cell = self.line_cell(mls, &line, n, d, k);
             let tol = self.params.max_step_m * k as f32;
             if let Some(g) = ground_near(cell, n.patch_z, tol) {
                 return Some(n.patch_z + (g - n.patch_z) / k as f32);
@@ -546,8 +616,9 @@ impl TravMap {
     /// ledge's rim has nothing beyond at its height and stays a wall.
     fn top_of_tall(&self, mls: &MlsMap, n: &Node, d: (i32, i32)) -> Option<f32> {
         let step = self.params.max_step_m;
+        let line = self.fetch_line(mls, n, d, TALL_CELLS + 1);
         let tall_top = |k: i32, z: f32| {
-            self.cell(mls, n.ix + k * d.0, n.iy + k * d.1)
+            self.line_cell(mls, &line, n, d, k)
                 .iter()
                 .find(|q| q.kind == PatchKind::Vertical && (q.max - z).abs() <= step)
                 .map(|q| q.max)
@@ -555,7 +626,7 @@ impl TravMap {
         let first = tall_top(1, n.patch_z)?;
         let mut z = first;
         for k in 2..=TALL_CELLS + 1 {
-            if ground_near(self.cell(mls, n.ix + k * d.0, n.iy + k * d.1), z, step).is_some() {
+            if ground_near(self.line_cell(mls, &line, n, d, k), z, step).is_some() {
                 return Some(first);
             }
             z = tall_top(k, z)?;
