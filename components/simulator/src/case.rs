@@ -286,16 +286,15 @@ impl CloudSource for ValidationCase {
 
 /// Another source's clouds, each answer also written into `case`: the
 /// keyframe count, the origins and the points as the simulator read them,
-/// but those outside `keep` ([`crate::InternalSim::integrated_box`]),
-/// which it drops before integrating (a case of the garage is then ~2 MB,
-/// not 35). The integration is point by point, so fewer points a slice
+/// but those `keep` does not read ([`crate::InternalSim::read_region`]),
+/// which it drops unused (a case of the garage is then ~2 MB, not 35). The integration is point by point, so fewer points a slice
 /// change nothing. (A keyframe whose pose SLAM replaced between two of
 /// its slices keeps the last origin; the replay's verdict then says
 /// whether that mattered.)
 pub struct RecordingClouds<'a, C: CloudSource> {
     pub inner: &'a C,
     pub case: &'a RefCell<ValidationCase>,
-    pub keep: ([f64; 3], [f64; 3]),
+    pub keep: crate::ReadRegion,
 }
 
 impl<C: CloudSource> CloudSource for RecordingClouds<'_, C> {
@@ -320,9 +319,9 @@ impl<C: CloudSource> CloudSource for RecordingClouds<'_, C> {
             if from == 0 {
                 kf.points.clear();
             }
-            let (lo, hi) = self.keep;
-            let inside = |p: &&[f64; 3]| (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a]);
-            kf.points.extend(out.iter().filter(inside));
+            let (keep, origin) = (self.keep, kf.origin);
+            kf.points
+                .extend(out.iter().filter(|p| keep.reads(origin, p)));
         }
         more
     }

@@ -30,3 +30,4 @@ pub use prediction::{rmse_at_equal_times, Prediction, PREDICTION_POINTS};
 pub use prefix::{driven_prefix, Prefix, PrefixRule};
 pub use run::{CloudSource, InternalSim, Outcome, SimCounters, Verdict};
 pub use stance::Stance;
+pub use terrain::ReadRegion;

@@ -78,7 +78,7 @@ pub fn strip(
             let u = half_width * (2.0 * k as f64 / (ACROSS - 1) as f64 - 1.0);
             let (x, y) = (s.at[0] + u * s.across[0], s.at[1] + u * s.across[1]);
             let z = footing.and_then(|f| f.z(x, y)).unwrap_or(s.z);
-            mesh.vertices.push(vertex(terrain, x, y, z));
+            mesh.vertices.push(vertex(terrain, x, y, z, Some(s.at)));
         }
     }
     triangulate_grid(&mut mesh, samples.len(), ACROSS);
@@ -96,7 +96,11 @@ pub fn pad(terrain: &Terrain, footing: &Footing) -> Mesh {
             let f = |k: usize| footing.half * (2.0 * k as f64 / (n - 1) as f64 - 1.0);
             let (dx, dy) = (f(i), f(j));
             let z = z0 + footing.slope[0] * dx + footing.slope[1] * dy;
-            mesh.vertices.push(vertex(terrain, x0 + dx, y0 + dy, z));
+            // Not the pad: round the rover nothing is seen inward, and
+            // a drop laid there under a rover standing at a ramp's side
+            // had it stuck where it drove off (see `over_edge`).
+            mesh.vertices
+                .push(vertex(terrain, x0 + dx, y0 + dy, z, None));
         }
     }
     triangulate_grid(&mut mesh, n, n);
@@ -168,13 +172,117 @@ fn triangulate_grid(mesh: &mut Mesh, rows: usize, cols: usize) {
     mesh.surfaces = vec![Surface::Rock; mesh.triangles.len()];
 }
 
-/// A vertex just under the seen ground of its column, or under the
-/// planner's ground `z` where the column holds none.
-fn vertex(terrain: &Terrain, x: f64, y: f64, z: f64) -> [f32; 3] {
+/// A vertex just under the seen ground of its column. Where the column
+/// holds none, under the planner's ground `z`, unless the hole is the
+/// shadow of an edge (see [`over_edge`]).
+fn vertex(terrain: &Terrain, x: f64, y: f64, z: f64, from: Option<[f64; 2]>) -> [f32; 3] {
     let ground = terrain
         .surface_z(x, y, z + SEARCH_UP_M, z - SEARCH_DOWN_M)
+        .or_else(|| over_edge(terrain, [x, y], z, from?))
         .unwrap_or(z);
     [x as f32, y as f32, (ground - DROP_M) as f32]
+}
+
+/// Unseen columns are walked this far outward for evidence of a drop, m:
+/// no further, for the unseen ground between says nothing of where the
+/// drop begins (beside a ramp driven down, seen-through columns past its
+/// side 1 m away sank the simulated ramp under the rover).
+const EDGE_OUT_M: f64 = 0.3;
+/// The walk's step, m (the simulated world's voxel).
+const EDGE_STEP_M: f64 = 0.05;
+/// Seen ground within this much under the planner's is level ground, m.
+const EDGE_LEVEL_M: f64 = 0.1;
+/// A seen-through column's ground is looked for this far down, m...
+const EDGE_DOWN_M: f64 = 2.0;
+/// ...no higher than this under the planner's, m (the rays that marked
+/// it ended deeper)...
+const SEEN_THROUGH_MIN_M: f64 = 0.3;
+/// The seen ground's slope inward of a hole is taken over at least this
+/// run, m...
+const EDGE_SLOPE_BASE_M: f64 = 0.2;
+/// ...and explains the rays down through the plane where it reaches to
+/// within this of the plane, m.
+const EDGE_SLOPE_MARGIN_M: f64 = 0.05;
+/// ...and where none is seen, taken this far under the planner's, m:
+/// deeper than a wheel can reach down.
+const SEEN_THROUGH_DROP_M: f64 = 1.0;
+
+/// The ground in the unseen column at `at` past the edge of a drop. From
+/// the column outward (away from `from`, the strip's centre line or the
+/// pad's centre), the first column that is either seen ground at the
+/// planner's level `z` or a column rays went down through (see
+/// `Terrain::seen_through`) decides: level ground, None (the planner's
+/// ground stands); seen through, the column lies on the slope from the
+/// last seen ground inward down to the seen-through column's ground (a
+/// metre under `z` where none is seen). None too where no ground is seen
+/// inward, or where the seen ground inward slopes down enough to reach
+/// the plane there by itself.
+///
+/// Why: a slab's edge hides the ground just under it from a sensor on
+/// the slab, so the columns past the edge were holes, and the strip and
+/// the pad laid the planner's level ground there. A plan along the edge
+/// of the garage's ramp opening passed the internal simulation while
+/// the rover, its outer wheels over the opening, tipped over; the rays
+/// into the opening went down past the floor's level there. Seen ground
+/// lower beyond a hole says nothing by itself: beside a ramp climbed
+/// from the floor it is the floor, and the ramp's unseen side laid
+/// sloping down to it tipped the simulated rover off every climb.
+fn over_edge(terrain: &Terrain, at: [f64; 2], z: f64, from: [f64; 2]) -> Option<f64> {
+    let (dx, dy) = (at[0] - from[0], at[1] - from[1]);
+    let out = dx.hypot(dy);
+    if out < EDGE_STEP_M {
+        return None;
+    }
+    let dir = [dx / out, dy / out];
+    let xy = |t: f64| (at[0] + t * dir[0], at[1] + t * dir[1]);
+    let steps = (EDGE_OUT_M / EDGE_STEP_M).round() as usize;
+    let (beyond, z_out) = (0..=steps).map(|k| k as f64 * EDGE_STEP_M).find_map(|t| {
+        let (x, y) = xy(t);
+        if t > 0.0
+            && terrain
+                .surface_z(x, y, z + SEARCH_UP_M, z - EDGE_LEVEL_M)
+                .is_some()
+        {
+            Some(None)
+        } else if terrain.seen_through(x, y, z) {
+            let low = terrain.surface_z(x, y, z - EDGE_LEVEL_M, z - EDGE_DOWN_M);
+            let low = low.filter(|&g| g < z - SEEN_THROUGH_MIN_M);
+            Some(Some((t, low.unwrap_or(z - SEEN_THROUGH_DROP_M))))
+        } else {
+            None
+        }
+    })??;
+    // The seen ground inward: the first column (no further in than
+    // `from`), and one further in for its slope.
+    let seen_in = |from_t: f64, to_t: f64| {
+        let (a, b) = (
+            (from_t / EDGE_STEP_M).ceil() as usize,
+            (to_t / EDGE_STEP_M) as usize,
+        );
+        (a.max(1)..=b).find_map(|k| {
+            let t = k as f64 * EDGE_STEP_M;
+            let (x, y) = xy(-t);
+            terrain
+                .surface_z(x, y, z + SEARCH_UP_M, z - SEARCH_DOWN_M)
+                .map(|g| (t, g))
+        })
+    };
+    // With nothing seen inward (the pad's vertices round the rover, whose
+    // own ground no scan sees), a slope going on down, which the rays
+    // down through the plane may have met, cannot be told from a drop:
+    // on a ramp's middle, the pad laid as a drop behind the rover tipped
+    // the simulated rover over at once, plan after plan.
+    let (behind, g1) = seen_in(EDGE_STEP_M, out)?;
+    // Ground sloping down outward reaches the plane by itself: the rays
+    // that went down through it there met the slope going on, not a drop
+    // (past the end of a plan that stops halfway down a ramp).
+    if let Some((t2, g2)) = seen_in(behind + EDGE_SLOPE_BASE_M, behind + 3.0 * EDGE_SLOPE_BASE_M) {
+        let fall = (g2 - g1) / (t2 - behind);
+        if g1 - fall * (behind + beyond) < terrain.through_z() + EDGE_SLOPE_MARGIN_M {
+            return None;
+        }
+    }
+    Some(z + (z_out - z) * behind / (behind + beyond))
 }
 
 /// Samples along `path`, at most `STEP_M` apart, with `beyond` more at
@@ -321,7 +429,7 @@ mod tests {
     /// As `terrain`, with only the points where `seen` holds.
     fn terrain_seen(z: impl Fn(f64, f64) -> f64, seen: impl Fn(f64, f64) -> bool) -> Terrain {
         let mut t = Terrain::new(&crate::SimulatorParams::default()).expect("terrain");
-        t.begin([-2.0, -2.0, -1.5], [6.0, 2.0, 2.5]);
+        t.begin([-2.0, -2.0, -1.5], [6.0, 2.0, 2.5], f64::NEG_INFINITY);
         for ox in [0.0, 3.0] {
             let mut pts = Vec::new();
             for i in 0..160 {
@@ -362,6 +470,93 @@ mod tests {
         for v in &far.vertices {
             let expect = 1.0 + 0.2 * (v[0] as f64 - 7.0) - DROP_M;
             assert!((v[2] as f64 - expect).abs() < 1e-5, "{v:?}");
+        }
+    }
+
+    /// A floor at 0 up to x = 2, seen from a sensor 1 m over the origin;
+    /// past it, `beyond(x)` from x = 4 on (the edge hides x = 2..4 when
+    /// it lies a metre down), nothing between. Rays down through 0.15 m
+    /// under the floor are counted, as for a plan on the floor.
+    fn edge_scene(beyond: impl Fn(f64) -> f64) -> Terrain {
+        let mut t = Terrain::new(&crate::SimulatorParams::default()).expect("terrain");
+        t.begin([-2.0, -2.0, -1.5], [6.0, 2.0, 2.5], -0.15);
+        let mut pts = Vec::new();
+        for i in 0..160 {
+            for j in 0..80 {
+                let (x, y) = (-2.0 + 0.05 * i as f64, -2.0 + 0.05 * j as f64);
+                if x < 2.0 {
+                    pts.push([x, y, 0.0]);
+                } else if x >= 4.0 {
+                    pts.push([x, y, beyond(x)]);
+                }
+            }
+        }
+        t.integrate([0.0, 0.0, 1.0], &mut pts);
+        t
+    }
+
+    /// The strip along the edge of `edge_scene`, 0.4 m in from it; the
+    /// height of its outer vertices (0.2 m past the edge).
+    fn outer_edge_vertices(t: &Terrain) -> Vec<f64> {
+        let path = [[1.6, -1.0, 0.0], [1.6, 1.0, 0.0]];
+        let m = strip(t, &path, 0.6, 0.0, None);
+        m.vertices
+            .iter()
+            .filter(|v| (v[0] - 2.2).abs() < 1e-3 && v[1].abs() < 0.8)
+            .map(|v| v[2] as f64)
+            .collect()
+    }
+
+    #[test]
+    fn past_an_edge_the_rays_went_down_through_the_strip_drops() {
+        let t = edge_scene(|_| -1.0);
+        assert!(t.seen_through(2.5, 0.0, 0.0));
+        assert!(!t.seen_through(1.5, 0.0, 0.0));
+        let outer = outer_edge_vertices(&t);
+        assert!(!outer.is_empty());
+        for z in outer {
+            assert!(z < -0.3, "{z}: the strip stood over the drop");
+        }
+    }
+
+    #[test]
+    fn past_a_hole_in_level_ground_the_strip_stays_level() {
+        // The same hole (x = 2..4), the floor seen at its level beyond:
+        // nothing went down, the planner's ground stands.
+        let t = edge_scene(|_| 0.0);
+        assert!(!t.seen_through(2.5, 0.0, 0.0));
+        for z in outer_edge_vertices(&t) {
+            assert!((z + DROP_M).abs() < 1e-6, "{z}");
+        }
+    }
+
+    #[test]
+    fn a_slope_going_on_down_past_the_plan_is_no_drop() {
+        // Ground falling 0.25 per metre from x = 0 on (a ramp), seen
+        // except for a hole round x = 2.2..2.4 beside the plan; the plan
+        // ends at x = 1.6, its lowest ground there (-0.4), so the ramp
+        // goes under the plane 0.15 m below from x = 2.2.
+        let z = |x: f64| -0.25 * x.max(0.0);
+        let mut t = Terrain::new(&crate::SimulatorParams::default()).expect("terrain");
+        t.begin([-2.0, -2.0, -2.5], [6.0, 2.0, 2.5], z(1.6) - 0.15);
+        let mut pts = Vec::new();
+        for i in 0..160 {
+            for j in 0..80 {
+                let (x, y) = (-2.0 + 0.05 * i as f64, -2.0 + 0.05 * j as f64);
+                if !(2.15..2.45).contains(&x) {
+                    pts.push([x, y, z(x)]);
+                }
+            }
+        }
+        t.integrate([0.0, 0.0, 1.0], &mut pts);
+        assert!(
+            t.seen_through(2.5, 0.0, z(1.6)),
+            "the ramp passes the plane"
+        );
+        let path = [[1.6, -1.0, z(1.6)], [1.6, 1.0, z(1.6)]];
+        let m = strip(&t, &path, 0.7, 0.0, None);
+        for v in m.vertices.iter().filter(|v| (v[0] - 2.3).abs() < 1e-3) {
+            assert!(v[2] as f64 > z(1.6) - 0.1, "{v:?}: sunk into the ramp");
         }
     }
 

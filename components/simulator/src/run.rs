@@ -132,6 +132,10 @@ const DROP_M: f64 = 0.08;
 /// stuck in the holes where the real one stood level. Not less: from a
 /// ramp's foot the rings see the ramp's middle, over the sensor.
 const BELOW_PLAN_M: f64 = 1.5;
+/// Rays down through this far under the plan's lowest ground mark the
+/// columns they cross as drops (see `Terrain::seen_through`), m: further
+/// than the scans' noise and SLAM's drift put the floor's own points.
+const THROUGH_UNDER_PLAN_M: f64 = 0.15;
 /// Half the side of the ground pad under the rover at the start, m.
 const FOOTPRINT_PAD_M: f64 = 1.0;
 /// The follower runs at 50 Hz, as the control task does.
@@ -325,6 +329,24 @@ impl InternalSim {
         self.terrain.grown(self.bounds.0, self.bounds.1)
     }
 
+    /// The points of the clouds the validation under way reads: those of
+    /// [`integrated_box`](Self::integrated_box) and the rays down past
+    /// the plan's level within it.
+    pub fn read_region(&self) -> crate::ReadRegion {
+        let (lo, hi) = self.integrated_box();
+        crate::ReadRegion {
+            lo,
+            hi,
+            through_z: self.through_z(),
+        }
+    }
+
+    /// The plane rays down through mark drops at (see
+    /// `Terrain::seen_through`).
+    fn through_z(&self) -> f64 {
+        self.lowest_z - THROUGH_UNDER_PLAN_M
+    }
+
     /// The simulated rover's state after the last physics step, once it
     /// has been put down.
     pub fn rover_state(&self) -> Option<&speleo_hal::sim::BodyState> {
@@ -388,7 +410,8 @@ impl InternalSim {
                 Phase::Idle | Phase::Done => {}
                 Phase::Teardown => self.phase = self.teardown(),
                 Phase::Clear => {
-                    self.terrain.begin(self.bounds.0, self.bounds.1);
+                    let through = self.through_z();
+                    self.terrain.begin(self.bounds.0, self.bounds.1, through);
                     self.phase = if self.given_ground.is_some() {
                         Phase::Base
                     } else {

@@ -13,6 +13,53 @@ use crate::SimulatorParams;
 const TILE_SLABS: usize = 3 * 3 * 16;
 /// Triangles reserved for a tile's mesh (a wall tile has ~600).
 const TILE_TRIANGLES: usize = 8192;
+/// The see-through grid's cells, m, and its side at most (51.2 m): a
+/// box larger than that keeps no marks past it.
+const THROUGH_CELL_M: f64 = 0.1;
+const THROUGH_SIDE: usize = 512;
+/// A column is seen through at a height this far under it and not
+/// further (see [`Terrain::seen_through`]), m.
+const THROUGH_UNDER_M: (f64, f64) = (0.1, 0.5);
+/// Rays count when they end this far under the plane, m: a ray that
+/// crosses it over a slope going down ends just past it.
+const THROUGH_DEEP_M: f64 = 0.15;
+/// Rays count from sensors this far over the plane, m: on the plan's
+/// level (the mast is 0.52 m high). From a level below, rays pass under
+/// the slab the plan drives on and mark its columns.
+const THROUGH_ORIGIN_M: f64 = 0.5;
+/// Rays that make a column seen through: one stray ray is noise.
+const THROUGH_RAYS: u8 = 2;
+
+/// The points a world reads of the clouds (`InternalSim::read_region`):
+/// inside the box, or under the see-through plane with their rays down
+/// through it inside the box's x and y. The others change nothing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReadRegion {
+    pub lo: [f64; 3],
+    pub hi: [f64; 3],
+    pub through_z: f64,
+}
+
+impl ReadRegion {
+    /// Whether point `p`, seen from `origin`, is read.
+    pub fn reads(&self, origin: Option<[f64; 3]>, p: &[f64; 3]) -> bool {
+        let (lo, hi) = (self.lo, self.hi);
+        if (0..3).all(|a| p[a] >= lo[a] && p[a] <= hi[a]) {
+            return true;
+        }
+        let z = self.through_z;
+        match origin {
+            Some(o) if o[2] > z && p[2] < z => {
+                let t = (o[2] - z) / (o[2] - p[2]);
+                (0..2).all(|a| {
+                    let c = o[a] + t * (p[a] - o[a]);
+                    c >= lo[a] && c <= hi[a]
+                })
+            }
+            _ => false,
+        }
+    }
+}
 
 pub(crate) struct Terrain {
     tsdf: TsdfVolume,
@@ -26,6 +73,14 @@ pub(crate) struct Terrain {
     nx: usize,
     pub tiles: usize,
     pub triangles: usize,
+    /// Rays that went down through the plane at `through_z`, per column
+    /// of the box (`through_nx` a row, saturating): the evidence of a
+    /// drop, where the TSDF keeps none (it carves only a few voxels in
+    /// front of each point, and points under the box are left out).
+    through: Vec<u8>,
+    through_nx: usize,
+    through_ny: usize,
+    through_z: f64,
 }
 
 impl Terrain {
@@ -52,11 +107,16 @@ impl Terrain {
             nx: 1,
             tiles: 0,
             triangles: 0,
+            through: vec![0; THROUGH_SIDE * THROUGH_SIDE],
+            through_nx: 0,
+            through_ny: 0,
+            through_z: f64::NEG_INFINITY,
         })
     }
 
-    /// A new, empty world over the box `lo..hi`.
-    pub fn begin(&mut self, lo: [f64; 3], hi: [f64; 3]) {
+    /// A new, empty world over the box `lo..hi`; rays down through
+    /// `through_z` are counted (see [`seen_through`](Self::seen_through)).
+    pub fn begin(&mut self, lo: [f64; 3], hi: [f64; 3], through_z: f64) {
         self.tsdf.clear();
         self.lo = lo;
         self.hi = hi;
@@ -64,6 +124,67 @@ impl Terrain {
         self.nx = n(0);
         self.tiles = self.nx * n(1);
         self.triangles = 0;
+        let cells = |k: usize| {
+            let c = ((hi[k] - lo[k]) / THROUGH_CELL_M).ceil();
+            if c.is_finite() && c > 0.0 {
+                (c as usize).min(THROUGH_SIDE)
+            } else {
+                0
+            }
+        };
+        self.through_nx = cells(0);
+        self.through_ny = cells(1);
+        self.through[..self.through_nx * self.through_ny].fill(0);
+        self.through_z = through_z;
+    }
+
+    /// The see-through grid's index of the column at `x`, `y`.
+    fn through_cell(&self, x: f64, y: f64) -> Option<usize> {
+        let i = ((x - self.lo[0]) / THROUGH_CELL_M).floor();
+        let j = ((y - self.lo[1]) / THROUGH_CELL_M).floor();
+        (i >= 0.0 && j >= 0.0 && i < self.through_nx as f64 && j < self.through_ny as f64)
+            .then(|| j as usize * self.through_nx + i as usize)
+    }
+
+    /// Count the rays from `origin` that go down through the plane at
+    /// `through_z` where they cross it.
+    fn count_through(&mut self, origin: [f64; 3], points: &[[f64; 3]]) {
+        let z = self.through_z;
+        // False for a NaN origin too.
+        let on_plan_level = origin[2] > z + THROUGH_ORIGIN_M;
+        if !on_plan_level {
+            return;
+        }
+        for p in points {
+            if p[2] < z - THROUGH_DEEP_M {
+                let t = (origin[2] - z) / (origin[2] - p[2]);
+                let x = origin[0] + t * (p[0] - origin[0]);
+                let y = origin[1] + t * (p[1] - origin[1]);
+                if let Some(c) = self.through_cell(x, y) {
+                    self.through[c] = self.through[c].saturating_add(1);
+                }
+            }
+        }
+    }
+
+    /// The plane rays are counted down through (see
+    /// [`seen_through`](Self::seen_through)).
+    pub fn through_z(&self) -> f64 {
+        self.through_z
+    }
+
+    /// Whether rays went down through the column at `x`, `y` under ground
+    /// believed at `z`, by 0.1 to 0.5 m: no ground stands there at `z`
+    /// (rays from above would have ended on it). The plane is the plan's
+    /// lowest ground less a little, so this speaks of columns near the
+    /// plan's lowest level only; over a slope's top it is silent.
+    pub fn seen_through(&self, x: f64, y: f64, z: f64) -> bool {
+        let under = z - self.through_z;
+        under >= THROUGH_UNDER_M.0
+            && under <= THROUGH_UNDER_M.1
+            && self
+                .through_cell(x, y)
+                .is_some_and(|c| self.through[c] >= THROUGH_RAYS)
     }
 
     /// Whether `p` lies in the box grown by `grow` in x and y.
@@ -74,6 +195,7 @@ impl Terrain {
     /// Integrate the points of `points` inside the box (with a voxel's
     /// margin) seen from `origin`; the number integrated.
     pub fn integrate(&mut self, origin: [f64; 3], points: &mut Vec<[f64; 3]>) -> u64 {
+        self.count_through(origin, points);
         let (lo, hi) = self.integrated_box();
         points.retain(|p| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]));
         self.tsdf.integrate(origin, points).integrated
@@ -147,5 +269,28 @@ impl Terrain {
 
     pub fn memory_bytes(&self) -> usize {
         self.tsdf.stats().memory_bytes + self.buffers.memory_bytes()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_case_keeps_the_rays_down_through_the_plane_within_the_box() {
+        let r = ReadRegion {
+            lo: [0.0, 0.0, -1.0],
+            hi: [4.0, 4.0, 2.0],
+            through_z: -0.15,
+        };
+        let o = Some([1.0, 1.0, 0.5]);
+        assert!(r.reads(o, &[2.0, 2.0, 0.0]), "inside the box");
+        // Down through the plane at x = 1.65, inside; ends under the box.
+        assert!(r.reads(o, &[3.0, 1.0, -1.5]));
+        // Through it at x = 7.5, outside.
+        assert!(!r.reads(o, &[11.0, 1.0, -1.5]));
+        // Up from below the plane: no crossing downward.
+        assert!(!r.reads(Some([1.0, 1.0, -2.0]), &[1.0, 1.0, -3.0]));
+        assert!(!r.reads(None, &[3.0, 1.0, -1.5]));
     }
 }

@@ -107,7 +107,7 @@ fn recorded() -> (Run, Vec<u8>) {
         let rec = RecordingClouds {
             inner: &scans,
             case: &case,
-            keep: sim.integrated_box(),
+            keep: sim.read_region(),
         };
         drive(&mut sim, &rec)
     };

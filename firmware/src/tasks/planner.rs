@@ -916,7 +916,7 @@ impl PlannerTask {
             };
             match &dump {
                 Some(d) => {
-                    let keep = sim.integrated_box();
+                    let keep = sim.read_region();
                     let rec = speleo_simulator::RecordingClouds {
                         inner: &clouds,
                         case: &d.case,
