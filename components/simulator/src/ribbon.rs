@@ -73,12 +73,16 @@ pub fn strip(
 ) -> Mesh {
     let mut mesh = Mesh::default();
     let samples = centre_line(path, beyond);
-    for s in &samples {
+    for (i, s) in samples.iter().enumerate() {
+        // Drops past an edge are looked for beside level stretches of
+        // the plan only (see `over_edge`).
+        let level = level_at(&samples, i);
         for k in 0..ACROSS {
             let u = half_width * (2.0 * k as f64 / (ACROSS - 1) as f64 - 1.0);
             let (x, y) = (s.at[0] + u * s.across[0], s.at[1] + u * s.across[1]);
             let z = footing.and_then(|f| f.z(x, y)).unwrap_or(s.z);
-            mesh.vertices.push(vertex(terrain, x, y, z, Some(s.at)));
+            let from = level.then_some(s.at);
+            mesh.vertices.push(vertex(terrain, x, y, z, from));
         }
     }
     triangulate_grid(&mut mesh, samples.len(), ACROSS);
@@ -181,6 +185,22 @@ fn vertex(terrain: &Terrain, x: f64, y: f64, z: f64, from: Option<[f64; 2]>) -> 
         .or_else(|| over_edge(terrain, [x, y], z, from?))
         .unwrap_or(z);
     [x as f32, y as f32, (ground - DROP_M) as f32]
+}
+
+/// Steepest stretch of a plan beside which drops past an edge are laid
+/// (tan 5°): on a ramp the plane under the plan's lowest ground cuts the
+/// ramp itself, and rays down the ramp marked its own columns (a plan
+/// down the garage's first ramp was refused, the true one drove it).
+const EDGE_LEVEL_SLOPE: f64 = 0.0875;
+
+/// Whether the plan is level at sample `i` (its neighbours' heights).
+fn level_at(samples: &[Sample], i: usize) -> bool {
+    let (a, b) = (
+        &samples[i.saturating_sub(1)],
+        &samples[(i + 1).min(samples.len() - 1)],
+    );
+    let run = (b.at[0] - a.at[0]).hypot(b.at[1] - a.at[1]);
+    run > 1e-6 && (b.z - a.z).abs() <= EDGE_LEVEL_SLOPE * run
 }
 
 /// Unseen columns are walked this far outward for evidence of a drop, m:
