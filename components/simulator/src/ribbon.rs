@@ -100,9 +100,9 @@ pub fn pad(terrain: &Terrain, footing: &Footing) -> Mesh {
             let f = |k: usize| footing.half * (2.0 * k as f64 / (n - 1) as f64 - 1.0);
             let (dx, dy) = (f(i), f(j));
             let z = z0 + footing.slope[0] * dx + footing.slope[1] * dy;
-            // Not the pad: round the rover nothing is seen inward, and
-            // a drop laid there under a rover standing at a ramp's side
-            // had it stuck where it drove off (see `over_edge`).
+            // No drops past an edge under the pad: round the rover
+            // nothing is seen inward, and a drop laid under a rover at a
+            // ramp's side had it stuck where it drove off (`over_edge`).
             mesh.vertices
                 .push(vertex(terrain, x0 + dx, y0 + dy, z, None));
         }
@@ -217,19 +217,19 @@ const EDGE_DOWN_M: f64 = 2.0;
 /// ...no higher than this under the planner's, m (the rays that marked
 /// it ended deeper)...
 const SEEN_THROUGH_MIN_M: f64 = 0.3;
+/// ...and where none is seen, taken this far under the planner's, m:
+/// deeper than a wheel can reach down.
+const SEEN_THROUGH_DROP_M: f64 = 1.0;
 /// The seen ground's slope inward of a hole is taken over at least this
 /// run, m...
 const EDGE_SLOPE_BASE_M: f64 = 0.2;
 /// ...and explains the rays down through the plane where it reaches to
 /// within this of the plane, m.
 const EDGE_SLOPE_MARGIN_M: f64 = 0.05;
-/// ...and where none is seen, taken this far under the planner's, m:
-/// deeper than a wheel can reach down.
-const SEEN_THROUGH_DROP_M: f64 = 1.0;
 
 /// The ground in the unseen column at `at` past the edge of a drop. From
-/// the column outward (away from `from`, the strip's centre line or the
-/// pad's centre), the first column that is either seen ground at the
+/// the column outward (away from `from`, the strip's centre line), the
+/// first column that is either seen ground at the
 /// planner's level `z` or a column rays went down through (see
 /// `Terrain::seen_through`) decides: level ground, None (the planner's
 /// ground stands); seen through, the column lies on the slope from the
@@ -239,8 +239,8 @@ const SEEN_THROUGH_DROP_M: f64 = 1.0;
 /// the plane there by itself.
 ///
 /// Why: a slab's edge hides the ground just under it from a sensor on
-/// the slab, so the columns past the edge were holes, and the strip and
-/// the pad laid the planner's level ground there. A plan along the edge
+/// the slab, so the columns past the edge were holes, and the strip laid
+/// the planner's level ground there. A plan along the edge
 /// of the garage's ramp opening passed the internal simulation while
 /// the rover, its outer wheels over the opening, tipped over; the rays
 /// into the opening went down past the floor's level there. Seen ground
