@@ -50,15 +50,18 @@ impl ReadRegion {
         let z = self.through_z;
         match origin {
             Some(o) if o[2] > z && p[2] < z => {
-                let t = (o[2] - z) / (o[2] - p[2]);
-                (0..2).all(|a| {
-                    let c = o[a] + t * (p[a] - o[a]);
-                    c >= lo[a] && c <= hi[a]
-                })
+                let c = crossing(o, p, z);
+                (0..2).all(|a| c[a] >= lo[a] && c[a] <= hi[a])
             }
             _ => false,
         }
     }
+}
+
+/// Where the ray from `o` to `p` crosses the height `z` (x, y).
+fn crossing(o: [f64; 3], p: &[f64; 3], z: f64) -> [f64; 2] {
+    let t = (o[2] - z) / (o[2] - p[2]);
+    [o[0] + t * (p[0] - o[0]), o[1] + t * (p[1] - o[1])]
 }
 
 pub(crate) struct Terrain {
@@ -157,9 +160,7 @@ impl Terrain {
         }
         for p in points {
             if p[2] < z - THROUGH_DEEP_M {
-                let t = (origin[2] - z) / (origin[2] - p[2]);
-                let x = origin[0] + t * (p[0] - origin[0]);
-                let y = origin[1] + t * (p[1] - origin[1]);
+                let [x, y] = crossing(origin, p, z);
                 if let Some(c) = self.through_cell(x, y) {
                     self.through[c] = self.through[c].saturating_add(1);
                 }
