@@ -20,7 +20,8 @@ pub struct ExplorationFigures {
     pub state: String,
     pub return_reason: Option<String>,
     pub returned_home: bool,
-    /// Drivable ground of the final map reachable from home, m^2.
+    /// Drivable ground of the final map reachable from home or from where
+    /// the rover went (its keyframes and its last pose), m^2.
     pub explored_area_m2: f64,
     /// Simulation only: the world's floor reachable from the start (its
     /// traversability graph on the world's own surface), the fraction of
@@ -112,15 +113,16 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
     }
 }
 
-/// The traversability graph over `mls` from the ground under `at`, with
-/// room for any map a mission makes; `None` when there is no ground there.
-pub fn reachable(mls: &MlsMap, at: [f64; 3], params: &TravParams) -> Option<TravMap> {
+/// The traversability graph over `mls` from the ground under any of
+/// `starts`, with room for any map a mission makes; `None` when there is
+/// no ground under any.
+pub fn reachable(mls: &MlsMap, starts: &[[f64; 3]], params: &TravParams) -> Option<TravMap> {
     let mut t = TravMap::new(TravParams {
         max_nodes: 1 << 22,
         ..params.clone()
     })
     .ok()?;
-    t.build(mls, at).ok()?;
+    t.build_from(mls, starts).ok()?;
     Some(t)
 }
 

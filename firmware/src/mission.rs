@@ -713,24 +713,21 @@ pub fn run<C: FrameClock>(
     let exploration = t_plan.exploration().map(|e| {
         use crate::exploration_figures as ef;
         let mut f = ef::onboard(e, &t_control.counters);
-        let home = e.explorer.home();
-        let ground = [home[0], home[1], home[2] - base_height_m(cfg)];
+        // The ground under home, every keyframe and the rover now. A full
+        // map drops what lies farthest from the rover, so a mission that
+        // ended far from home (stranded on the garage's roof) may hold no
+        // ground there any more, nor under the rover if it stands on an
+        // edge; what the rest of its track reaches is still explored.
+        let below = |p: [f64; 3]| [p[0], p[1], p[2] - base_height_m(cfg)];
+        let graph = t_slam.slam();
+        let mut starts = vec![below(e.explorer.home())];
+        starts.extend((0..graph.keyframes().len()).map(|k| {
+            let at = graph.keyframe_pose(k).t;
+            below([at[0], at[1], at[2]])
+        }));
+        starts.extend(bus.slam.get().map(|p| below(p.value.position)));
         let (mls, tp) = (bus.surface.serving(), cfg.planner.trav_params());
-        let from_home = ef::reachable(mls, ground, &tp);
-        // A graph from home with nothing drivable in it is what is left of
-        // home's ground, not the explored area.
-        let from_home = from_home.filter(|t| ef::drivable_area_m2(t) > 0.0);
-        explored = from_home.or_else(|| {
-            // A full map drops what lies farthest from the rover: one that
-            // ended far from home (stranded on the garage's third ramp)
-            // may hold no ground there any more. What it reaches from
-            // where the rover stands is then the explored area.
-            let p = bus.slam.get()?.value.position;
-            tracing::info!(
-                "no ground at home in the final map: the explored area grown from the rover"
-            );
-            ef::reachable(mls, [p[0], p[1], p[2] - base_height_m(cfg)], &tp)
-        });
+        explored = ef::reachable(mls, &starts, &tp);
         f.explored_area_m2 = explored.as_ref().map_or(0.0, ef::drivable_area_m2);
         if m.truth.is_some() {
             let s = &track.samples;

@@ -442,7 +442,7 @@ fn exploration_truth(
     };
     let truth_mls = crate::tools::plan_world::surface_map(world)?;
     let [x, y, z, _] = world.start;
-    let Some(truth) = ef::reachable(&truth_mls, [x, y, z], &cfg.planner.trav_params()) else {
+    let Some(truth) = ef::reachable(&truth_mls, &[[x, y, z]], &cfg.planner.trav_params()) else {
         return Ok(());
     };
     let (s, c) = heading.sin_cos();

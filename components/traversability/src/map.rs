@@ -321,6 +321,31 @@ impl TravMap {
         start: [f64; 3],
         window: Option<Window>,
     ) -> Result<(), BuildError> {
+        self.begin_from(mls, &[start], window)
+    }
+
+    /// Build the graph grown from the ground under each of `starts`
+    /// together: the ground reachable from any of them, each patch once.
+    /// Starts with no ground within a step are passed over; the error
+    /// names the first start when none has any.
+    pub fn build_from(
+        &mut self,
+        mls: &MlsMap,
+        starts: &[[f64; 3]],
+    ) -> Result<BuildStats, BuildError> {
+        self.begin_from(mls, starts, None)?;
+        while !self.grow(mls, u64::MAX) {}
+        Ok(self.stats)
+    }
+
+    /// [`begin`](Self::begin) from several starts (see
+    /// [`build_from`](Self::build_from)).
+    pub fn begin_from(
+        &mut self,
+        mls: &MlsMap,
+        starts: &[[f64; 3]],
+        window: Option<Window>,
+    ) -> Result<(), BuildError> {
         self.nodes.clear();
         self.by_cell.reset(window);
         self.next_in_cell.clear();
@@ -332,20 +357,33 @@ impl TravMap {
         self.stats = BuildStats::default();
         self.resolution = mls.params().resolution_m;
         self.window = window;
-        let (ix, iy) = mls.cell_of(start[0], start[1]);
-        let no_start = BuildError::NoStartPatch {
-            x: start[0],
-            y: start[1],
-            z: start[2],
-        };
-        if !self.in_window(ix, iy) {
-            return Err(no_start);
+        for start in starts {
+            let (ix, iy) = mls.cell_of(start[0], start[1]);
+            if !self.in_window(ix, iy) {
+                continue;
+            }
+            let Some(z) = ground_near(mls.cell(ix, iy), start[2] as f32, self.params.max_step_m)
+            else {
+                continue;
+            };
+            // Two starts over one patch seed it once.
+            let seeded = self
+                .nodes_in_cell(ix, iy)
+                .any(|i| self.nodes[i as usize].patch_z == z);
+            if !seeded {
+                if let Some(i) = self.add_node(ix, iy, z) {
+                    self.queue.push_back(i);
+                }
+            }
         }
-        let Some(z) = ground_near(mls.cell(ix, iy), start[2] as f32, self.params.max_step_m) else {
-            return Err(no_start);
-        };
-        let first = self.add_node(ix, iy, z).ok_or(no_start)?;
-        self.queue.push_back(first);
+        if self.nodes.is_empty() {
+            let s = starts.first().copied().unwrap_or([f64::NAN; 3]);
+            return Err(BuildError::NoStartPatch {
+                x: s[0],
+                y: s[1],
+                z: s[2],
+            });
+        }
         Ok(())
     }
 

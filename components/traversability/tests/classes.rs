@@ -191,6 +191,29 @@ fn two_levels_over_each_other_stay_apart_unless_a_ramp_joins_them() {
 }
 
 #[test]
+fn a_graph_from_several_starts_holds_the_ground_each_reaches_once() {
+    let mut m = mls();
+    // Ground floor and a deck 2.5 m above it, no ramp between.
+    surface(&mut m, (0.0, 6.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (0.0, 6.0), (0.0, 4.0), |_, _| 2.5);
+    let graph = |starts: &[[f64; 3]]| {
+        let mut t = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+        t.build_from(&m, starts).map(|_| t)
+    };
+    let (low, deck, nowhere) = ([3.0, 2.0, 0.0], [3.0, 2.0, 2.5], [30.0, 30.0, 0.0]);
+    let one = graph(&[low]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(one.stats().nodes, 2400);
+    // Both levels, each patch once; a second start on the same floor and
+    // a start over no ground add nothing.
+    let all = graph(&[nowhere, low, deck, [1.0, 1.0, 0.0], low]).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(all.stats().nodes, 4800);
+    assert!(class_at(&all, 3.0, 2.0, 2.5).is_some());
+    assert!(class_at(&all, 3.0, 2.0, 0.0).is_some());
+    assert!(graph(&[nowhere]).is_err());
+    assert!(graph(&[]).is_err());
+}
+
+#[test]
 fn ground_that_overhangs_a_drop_is_an_obstacle_a_small_step_down_is_not() {
     let mut m = mls();
     // A deck 1.5 m over the floor for x < 4, the floor seen beyond it;
