@@ -454,6 +454,7 @@ pub fn run<C: FrameClock>(
             max_slope_deg: cfg.planner.max_slope_deg,
             base_height_m: base_height_m(cfg),
             front_m: 0.5 * cfg.planner.body_length_m,
+            half_track_m: 0.5 * cfg.rover.track_width_m,
             ..SafetyParams::default()
         }),
     );

@@ -90,6 +90,8 @@ pub struct SafetyParams {
     pub no_progress_after_s: f64,
     /// From base_link to the front of the wheels, m.
     pub front_m: f64,
+    /// From the centre line to each side's wheels, m (half the track).
+    pub half_track_m: f64,
     /// How far beyond the front the ground is probed, and in which steps, m.
     pub probe_ahead_m: f64,
     pub probe_step_m: f64,
@@ -122,6 +124,7 @@ impl Default for SafetyParams {
             stuck_turn_rad: 0.3,
             no_progress_after_s: 30.0,
             front_m: 0.5,
+            half_track_m: 0.26,
             probe_ahead_m: 0.8,
             probe_step_m: 0.1,
             max_gap_m: 0.6,
@@ -272,7 +275,9 @@ impl SafetyMonitor {
         let dir = if s.v > 0.0 { 1.0 } else { -1.0 };
         // Heading change per metre driven.
         let curvature = s.w / s.v.abs();
-        let front = |d: f64| {
+        // Where the front of the wheels is after d metres along the arc,
+        // `side` metres to the left of the centre line.
+        let front_at = |d: f64, side: f64| {
             let h = s.yaw + curvature * d;
             let (sn, cs) = (libm::sin(h), libm::cos(h));
             // Where base_link is after d metres along the arc...
@@ -286,19 +291,40 @@ impl SafetyMonitor {
             };
             // ...and the front of its wheels, in the direction of travel.
             (
-                s.position[0] + dir * (bx + self.p.front_m * cs),
-                s.position[1] + dir * (by + self.p.front_m * sn),
+                s.position[0] + dir * (bx + self.p.front_m * cs) - side * sn,
+                s.position[1] + dir * (by + self.p.front_m * sn) + side * cs,
             )
         };
+        let front = |d: f64| front_at(d, 0.0);
         let ground = s.position[2] - self.p.base_height_m;
         let slope = libm::tan(self.p.max_slope_deg.to_radians());
         // Beyond the path's end the rover will not go.
         let reach = self.p.probe_ahead_m.min(s.remaining_m.max(0.0));
         let steps = (reach / self.p.probe_step_m).floor() as usize;
         let (mut gap, mut drop) = (0.0, 0.0);
+        let mut side_drop = [0.0; 2];
         for k in 0..=steps {
             let d = k as f64 * self.p.probe_step_m;
             let r = self.p.front_m + d;
+            // Under each side's wheels only a drop seen counts: a plan
+            // along a slab's edge keeps its centre line on the slab while
+            // one side's wheels go over (the garage's ramp opening), and
+            // ground merely unseen beside the path is a ring gap.
+            for (i, side) in [self.p.half_track_m, -self.p.half_track_m]
+                .into_iter()
+                .enumerate()
+            {
+                let (x, y) = front_at(d, side);
+                let tol = self.p.max_step_m + (r + self.p.half_track_m) * slope;
+                if map.probe(x, y, ground, tol) == Probe::Drop {
+                    side_drop[i] += self.p.probe_step_m;
+                    if side_drop[i] > self.p.max_drop_m {
+                        return Some(StopReason::LeavingMap);
+                    }
+                } else {
+                    side_drop[i] = 0.0;
+                }
+            }
             let (x, y) = front(d);
             let probe = map.probe(x, y, ground, self.p.max_step_m + r * slope);
             if probe == Probe::Drop {
@@ -560,6 +586,35 @@ mod tests {
         }
         let mut m = SafetyMonitor::new(SafetyParams::default());
         assert_eq!(m.check(&input(0.0, 0.0), &Fleck), None);
+    }
+
+    #[test]
+    fn a_drop_under_one_sides_wheels_stops_the_rover_on_a_centre_line_on_ground() {
+        // A slab's edge along the path, `edge` m to the right of the centre
+        // line; beyond it the floor below is seen (`beyond`).
+        struct Edge {
+            edge: f64,
+            beyond: Probe,
+        }
+        impl GroundProbe for Edge {
+            fn probe(&self, x: f64, y: f64, _z: f64, _tol: f64) -> Probe {
+                if x > 1.5 && y < -self.edge {
+                    self.beyond
+                } else {
+                    Probe::Ground
+                }
+            }
+        }
+        let stop = |edge: f64, beyond: Probe| {
+            let map = Edge { edge, beyond };
+            let mut m = SafetyMonitor::new(SafetyParams::default());
+            (0..100).find_map(|k| m.check(&input(k as f64 * 0.03, k as f64 * 0.1), &map))
+        };
+        // The right wheels (0.26 m out) over the drop.
+        assert_eq!(stop(0.2, Probe::Drop), Some(StopReason::LeavingMap));
+        // The edge outside the wheels, or unseen ground beside the path.
+        assert_eq!(stop(0.35, Probe::Drop), None);
+        assert_eq!(stop(0.2, Probe::NoGround), None);
     }
 
     #[test]
