@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The project's test command (README.md): format check, clippy with warnings
-# denied, every test of the workspace, then each fuzz target for a bounded
+# denied, every test of the workspace, the end-to-end exploration in release,
+# then each fuzz target for a bounded
 # time (SPELEO_FUZZ_SECONDS, default 15; 0 skips). Needs only a Rust
 # toolchain with rustfmt and clippy; everything else is fetched by cargo.
 set -euo pipefail
@@ -21,5 +22,7 @@ echo "== the executive's core without std"
 cargo check -p speleo-scheduler --no-default-features --locked
 echo "== cargo test"
 cargo test --workspace --locked
+echo "== the autonomous mission end to end (release: minutes, not the debug build's hour)"
+cargo test --release -p speleo-tests --test exploration --locked -- --ignored
 echo "== fuzz targets"
 bash ci/fuzz.sh

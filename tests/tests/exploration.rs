@@ -3,7 +3,8 @@
 //! internal simulator. About 400 s of mission time: a
 //! few minutes in a release build, far longer in the debug test build, so
 //! it is ignored there and run with
-//! `cargo test --release -p speleo-tests --test exploration -- --ignored`.
+//! `cargo test --release -p speleo-tests --test exploration -- --ignored`
+//! (as `ci/test.sh` does).
 
 use speleo_firmware::cli::{Outputs, SimArgs};
 use speleo_firmware::modes;
