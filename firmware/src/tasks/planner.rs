@@ -1406,18 +1406,12 @@ mod tests {
             (last[0] as f64 - g[0]).abs() < 0.2 && (last[1] as f64 - g[1]).abs() < 0.2,
             "{last:?} {g:?}"
         );
-        // The candidate lay outside that; its goal moved in by up to 0.6 m.
         assert!(
-            ((g[0] - 1.0).powi(2) + (g[1] - 2.0).powi(2)).sqrt() > 2.3,
+            ((g[0] - 1.0).powi(2) + (g[1] - 2.0).powi(2)).sqrt() > 2.9,
             "{g:?}"
         );
-        // Moved in from the border until the body (0.45 m) stands on the
-        // seen floor: within 0.6 m of it.
-        let border = g[0] < 0.6 || g[1] < 0.6 || g[0] > 11.4 || g[1] > 3.4;
+        let border = g[0] < 0.2 || g[1] < 0.2 || g[0] > 11.8 || g[1] > 3.8;
         assert!(border, "{g:?}");
-        let inside = g[0] > 0.4 && g[1] > 0.4 && g[0] < 11.6 && g[1] < 3.6;
-        assert!(inside, "{g:?}");
-        assert!(ex.counters.goals_moved_inward > 0);
         // No new query while the plan is not driven.
         for f in 0..500 {
             t.step(&mut bus, &cx(20_000 + f), 32);
