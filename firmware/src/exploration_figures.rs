@@ -41,9 +41,6 @@ pub struct ExplorationFigures {
     /// refused, and plans driven.
     pub goals_attempted: u64,
     pub goals_unreachable: u64,
-    /// Candidates whose goal moved inward onto seen ground (on a rim the
-    /// rover would stand half over the air).
-    pub goals_moved_inward: u64,
     pub goals_validated: u64,
     pub goals_rejected_by_sim: u64,
     pub plans_executed: u64,
@@ -92,7 +89,6 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         returned_home: matches!(e.mode(), Mode::Finished(_)),
         goals_attempted: e.counters.goals_attempted,
         goals_unreachable: e.counters.goals_unreachable,
-        goals_moved_inward: e.counters.goals_moved_inward,
         goals_validated: e.counters.validated,
         goals_rejected_by_sim: e.counters.rejected_by_sim,
         plans_executed: e.counters.plans_executed,

@@ -8,7 +8,6 @@
 use speleo_traversability::{TravClass, TravMap, Window};
 
 use crate::coverage::CoverageMap;
-use crate::firm_goal::obstacle_near;
 
 /// Cells just inside the window's margin whose drivable patches are
 /// candidates.
@@ -307,6 +306,28 @@ impl CandidateScan {
             unexplored_m2,
         })
     }
+}
+
+/// Whether an obstacle patch near height `z` lies within `radius_m`; the
+/// cells looked up are added to `work`.
+fn obstacle_near(trav: &TravMap, ix: i32, iy: i32, z: f32, radius_m: f64, work: &mut u64) -> bool {
+    let r = (radius_m / trav.resolution()).round() as i32;
+    for dy in -r..=r {
+        for dx in -r..=r {
+            if dx * dx + dy * dy > r * r {
+                continue;
+            }
+            *work += 1;
+            let hit = trav.nodes_in_cell(ix + dx, iy + dy).any(|j| {
+                trav.node(j)
+                    .is_some_and(|m| m.class == TravClass::Obstacle && (m.ground_z - z).abs() < 0.5)
+            });
+            if hit {
+                return true;
+            }
+        }
+    }
+    false
 }
 
 /// Area within `radius_m` of cell (ix, iy) where the graph has no patch,

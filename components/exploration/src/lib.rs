@@ -10,11 +10,9 @@
 pub mod candidates;
 pub mod coverage;
 pub mod explorer;
-pub mod firm_goal;
 pub mod trail;
 
 pub use candidates::{Candidate, CandidateParams, CandidateScan, ScanCensus, MAX_CANDIDATES};
 pub use coverage::CoverageMap;
 pub use explorer::{Explorer, ExplorerParams, Mode, ReturnReason};
-pub use firm_goal::{firm_goal, FirmGoalParams};
 pub use trail::Trail;

@@ -23,9 +23,6 @@ pub struct ExplorationCounters {
     /// Queries that scanned for candidates, and those that found none.
     pub scans: u64,
     pub scans_empty: u64,
-    /// Candidates whose goal moved inward onto seen ground
-    /// (`speleo_exploration::firm_goal`).
-    pub goals_moved_inward: u64,
     /// Goals planned to (candidates and points home), and those with no path.
     pub goals_attempted: u64,
     pub goals_unreachable: u64,

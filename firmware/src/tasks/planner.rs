@@ -26,7 +26,7 @@ use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
-use speleo_exploration::{firm_goal, FirmGoalParams, Mode, ReturnReason};
+use speleo_exploration::{Mode, ReturnReason};
 use speleo_simulator::{Outcome, Stance};
 
 use crate::bus::{Bus, PlanMsg};
@@ -613,22 +613,8 @@ impl PlannerTask {
         }
         let q = &mut self.query;
         q.order_len = best.len().min(GOAL_POINTS);
-        let params = ex.scan.params();
-        let clearance = if ex.scan.is_tight() {
-            params.tight_clearance_m
-        } else {
-            params.clearance_m
-        };
-        let trav = self.lat.trav();
         for (o, c) in q.order.iter_mut().zip(best) {
-            // A frontier patch on a roof's rim would have the rover stand
-            // half over the air past it: the goal moves onto seen ground.
-            let (node, _) = firm_goal(trav, c.node, clearance, &FirmGoalParams::default());
-            let at = trav.node(node).map_or(c.position, |n| trav.position(n));
-            if node != c.node {
-                ex.counters.goals_moved_inward += 1;
-            }
-            *o = (node, at);
+            *o = (c.node, c.position);
         }
         self.try_goal(0)
     }
