@@ -239,19 +239,6 @@ impl Terrain {
         None
     }
 
-    /// Whether any voxel of the column at `x`, `y` between `top` and
-    /// `bottom` was seen (free space in front of a surface, or behind
-    /// it). False outside the box too: nothing is known there.
-    pub fn column_seen(&self, x: f64, y: f64, top: f64, bottom: f64) -> bool {
-        let [vx, vy, top] = self.tsdf.voxel_of([x, y, top]);
-        let bottom = self.tsdf.voxel_of([x, y, bottom])[2];
-        (bottom..=top).any(|vz| {
-            self.tsdf
-                .voxel([vx, vy, vz])
-                .is_some_and(|s| s.weight > 0.0)
-        })
-    }
-
     /// Tile `i`'s corners in x and y.
     pub fn tile_bounds(&self, i: usize) -> ([f64; 2], [f64; 2]) {
         let (ix, iy) = ((i % self.nx) as f64, (i / self.nx) as f64);
