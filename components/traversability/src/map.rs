@@ -307,9 +307,7 @@ impl TravMap {
     /// (x, y and the ground height, within a step). Replaces the previous
     /// graph; allocates nothing while the node limit holds.
     pub fn build(&mut self, mls: &MlsMap, start: [f64; 3]) -> Result<BuildStats, BuildError> {
-        self.begin(mls, start, None)?;
-        while !self.grow(mls, u64::MAX) {}
-        Ok(self.stats)
+        self.build_from(mls, &[start])
     }
 
     /// Start a growth from the ground patch under `start`, kept to the
