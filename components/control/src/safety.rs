@@ -172,6 +172,9 @@ pub struct SafetyMonitor {
     /// When the plan left to drive was last seen to shrink, and its
     /// smallest value since the reset.
     best_left: Option<(f64, f64)>,
+    /// Where the ground probe that made the last map stop was (see
+    /// [`trigger`](Self::trigger)).
+    trigger: Option<[f64; 2]>,
 }
 
 /// A rover already tilted beyond the limit (stopped there) may move as
@@ -189,6 +192,7 @@ impl SafetyMonitor {
             start_tilt_deg: None,
             start_xy: None,
             best_left: None,
+            trigger: None,
         }
     }
 
@@ -204,8 +208,16 @@ impl SafetyMonitor {
         self.best_left = None;
     }
 
+    /// Where the probe that made the last check's `LeavingMap` or
+    /// `Blocked` stop looked (x, y in the map frame): the map cell that
+    /// explains it. None after any other check.
+    pub fn trigger(&self) -> Option<[f64; 2]> {
+        self.trigger
+    }
+
     /// Whether the command must not be sent, and why.
     pub fn check(&mut self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
+        self.trigger = None;
         let start = *self.start_tilt_deg.get_or_insert(s.tilt_deg);
         self.start_xy.get_or_insert([s.position[0], s.position[1]]);
         // Over the limit, a plan that began there may go on while the tilt
@@ -225,7 +237,9 @@ impl SafetyMonitor {
         if s.cross_track_m > self.p.max_cross_track_m {
             return Some(StopReason::OffPath);
         }
-        self.ahead(s, map)
+        let (reason, at) = self.ahead(s, map)?;
+        self.trigger = Some(at);
+        Some(reason)
     }
 
     fn stuck(&mut self, s: &MonitorInput) -> bool {
@@ -268,7 +282,7 @@ impl SafetyMonitor {
     /// the arc of its command. Probed straight ahead, a rover turning hard
     /// round a wall's end saw the wall it was turning away from, and was
     /// stopped there plan after plan (1,276 times in one lava-tube run).
-    fn ahead(&self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
+    fn ahead(&self, s: &MonitorInput, map: &impl GroundProbe) -> Option<(StopReason, [f64; 2])> {
         if s.v.abs() < 0.01 {
             return None;
         }
@@ -319,7 +333,7 @@ impl SafetyMonitor {
                 if map.probe(x, y, ground, tol) == Probe::Drop {
                     side_drop[i] += self.p.probe_step_m;
                     if side_drop[i] > self.p.max_drop_m {
-                        return Some(StopReason::LeavingMap);
+                        return Some((StopReason::LeavingMap, [x, y]));
                     }
                 } else {
                     side_drop[i] = 0.0;
@@ -333,7 +347,7 @@ impl SafetyMonitor {
                 // that ring, drove off it.
                 drop += self.p.probe_step_m;
                 if drop > self.p.max_drop_m {
-                    return Some(StopReason::LeavingMap);
+                    return Some((StopReason::LeavingMap, [x, y]));
                 }
             } else {
                 drop = 0.0;
@@ -347,11 +361,11 @@ impl SafetyMonitor {
                 Probe::NoGround | Probe::Drop => {
                     gap += self.p.probe_step_m;
                     if gap > self.p.max_gap_m {
-                        return Some(StopReason::LeavingMap);
+                        return Some((StopReason::LeavingMap, [x, y]));
                     }
                 }
                 Probe::Blocked if d <= self.p.blocked_within_m => {
-                    return Some(StopReason::Blocked);
+                    return Some((StopReason::Blocked, [x, y]));
                 }
                 Probe::Blocked => gap = 0.0,
             }
@@ -373,7 +387,7 @@ impl SafetyMonitor {
                     Probe::NoGround | Probe::Drop => {
                         gap += self.p.probe_step_m;
                         if gap > self.p.max_gap_m {
-                            return Some(StopReason::LeavingMap);
+                            return Some((StopReason::LeavingMap, [x, y]));
                         }
                     }
                 }
@@ -453,6 +467,22 @@ mod tests {
         assert_eq!(stop, StopReason::LeavingMap);
         // The front of the wheels is still on the ground.
         assert!(x + SafetyParams::default().front_m < 5.0, "stopped at {x}");
+        // The probe that stopped it looked past the edge, ahead of the
+        // wheels; the next check (a new plan) forgets it.
+        let [px, _] = m.trigger().expect("the stop's probe");
+        assert!(px > 5.0 && px < x + 2.0, "probe at {px}");
+        m.reset();
+        assert_eq!(
+            m.check(
+                &input(0.0, t + 100.0),
+                &Ledge {
+                    edge: 50.0,
+                    wall: None
+                }
+            ),
+            None
+        );
+        assert_eq!(m.trigger(), None);
     }
 
     #[test]

@@ -197,7 +197,17 @@ impl Task<Bus> for ControlTask {
                     cross_track_m: plans.cross_track_m(x, y),
                     plan_left_m: plans.plan_left_m(x, y),
                 };
-                if let Some(r) = self.monitor.check(&input, &MlsProbe(bus.surface.serving())) {
+                let map = bus.surface.serving();
+                if let Some(r) = self.monitor.check(&input, &MlsProbe(map)) {
+                    if let Some([px, py]) = self.monitor.trigger() {
+                        let (ix, iy) = map.cell_of(px, py);
+                        tracing::debug!(
+                            x = px,
+                            y = py,
+                            patches = ?map.cell(ix, iy),
+                            "safety stop probe"
+                        );
+                    }
                     tracing::debug!(
                         reason = r.name(),
                         x = p.position[0],
