@@ -376,3 +376,51 @@ fn turning_round_at_a_ramps_foot_costs_what_turning_on_the_ramp_does() {
         plan_with(&m, start, goal, free).cost
     );
 }
+
+/// The cost of the optimal plan, the start's cell let through as the
+/// on-board planner does (`escape`), or not.
+fn plan_cost(m: &MlsMap, start: [f64; 4], goal: [f64; 4], escape: bool) -> Option<u32> {
+    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    trav.build(m, [start[0], start[1], start[2]])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let node = |p: [f64; 4]| trav.node_at(p[0], p[1], p[2], 0.3);
+    let (s, g) = (node(start)?, node(goal)?);
+    let bin = |yaw: f64| speleo_planner::sbpl::angle_to_bin(yaw, 16);
+    let prims = generate(&PrimitiveSpec::default());
+    let mut lat = SurfaceLattice::new(trav, &prims, SurfaceParams::default(), 200 * 200)
+        .unwrap_or_else(|e| panic!("{e}"));
+    lat.set_escape(escape.then_some(s));
+    lat.prepare_all(m, (g, bin(goal[3])))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut a = AraStar::new(lat.max_state_count(), lat.max_successors());
+    a.start(
+        &lat,
+        lat.state(s, bin(start[3])),
+        lat.goal_state(),
+        AraParams::default(),
+    );
+    loop {
+        match a.step(&lat, 500) {
+            Progress::Searching | Progress::Solution { .. } => {}
+            Progress::Optimal { cost } => break Some(cost),
+            Progress::NoPath | Progress::Idle => break None,
+        }
+    }
+}
+
+#[test]
+fn a_rover_standing_in_a_drops_margin_may_drive_out_of_it_but_not_into_it() {
+    // A deck 1.5 m over the floor for x < 4, the floor seen beyond.
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 4.0), (0.0, 3.0), |_, _| 1.5);
+    surface(&mut m, (4.0, 8.0), (0.0, 3.0), |_, _| 0.0);
+    let (edge, inland) = ([3.6, 1.5, 1.5, 0.0], [1.0, 1.5, 1.5, 0.0]);
+    // 0.4 m from the edge: in the margin, ground it stands on.
+    assert!(
+        plan_cost(&m, edge, inland, true).is_some(),
+        "stuck in the margin"
+    );
+    assert_eq!(plan_cost(&m, edge, inland, false), None);
+    // From inland, the margin is no goal to drive to.
+    assert_eq!(plan_cost(&m, inland, edge, true), None);
+}
