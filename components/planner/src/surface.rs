@@ -535,10 +535,7 @@ impl SurfaceLattice {
     fn enterable(&self, j: u32) -> bool {
         let n = &self.trav.nodes()[j as usize];
         let crowded = (self.blocked_d2[j as usize] as f64) < self.inscribed_d2;
-        // Near its start the rover may drive out of a drop's margin: it
-        // stands there.
-        let drivable = n.class.is_drivable() || (n.standable() && self.near_escape(n));
-        drivable && (!crowded || self.near_escape(n))
+        n.class.is_drivable() && (!crowded || self.near_escape(n))
     }
 
     /// Whether a path from `node` to the goal may exist, once prepared:

@@ -58,9 +58,6 @@ pub const FIT_POINTS_PER_UNIT: usize = 8;
 
 /// Work units of setting a node's final class (its eight neighbours read).
 const FINISH_UNITS: u64 = 4;
-/// Work units of the drop margin's look at the neighbours' neighbours
-/// (nodes in memory, not the map's cells).
-const DROP_MARGIN_UNITS: u64 = 2;
 
 /// Cells under a footprint that must show a drop for it to hang over one:
 /// an edge crosses the footprint's rim in several, noise in one.
@@ -105,20 +102,6 @@ pub struct Node {
     /// The node limit refused a neighbour of it: a full graph stops here,
     /// the map does not (like a growth window's border).
     pub cut: bool,
-    /// Its footprint hangs over a drop (an obstacle; see
-    /// [`TravParams::drop_margin_links`]).
-    pub over_drop: bool,
-    /// An obstacle only for lying within the drop margin: ground the
-    /// rover could stand on, and may drive off where it stands.
-    pub near_drop: bool,
-}
-
-impl Node {
-    /// Ground the rover can stand on: drivable, or an obstacle only for
-    /// lying in a drop's margin (a plan may start there and leave it).
-    pub fn standable(&self) -> bool {
-        self.class.is_drivable() || self.near_drop
-    }
 }
 
 #[derive(Debug, Error, PartialEq)]
@@ -138,9 +121,6 @@ pub struct BuildStats {
     pub unknown: usize,
     pub explorable: usize,
     pub frontier: usize,
-    /// Obstacles (counted in `obstacle`) for lying within
-    /// `drop_margin_links` of a footprint over a drop.
-    pub near_drop: usize,
     /// The node limit stopped the growth.
     pub full: bool,
 }
@@ -424,7 +404,7 @@ impl TravMap {
             } else if self.finished < self.nodes.len() {
                 self.finish_class(self.finished);
                 self.finished += 1;
-                self.spend(FINISH_UNITS + DROP_MARGIN_UNITS);
+                self.spend(FINISH_UNITS);
             } else {
                 self.stats.nodes = self.nodes.len();
                 self.complete = true;
@@ -706,8 +686,6 @@ impl TravMap {
             neighbours: [NONE; 8],
             touches_unobserved: false,
             cut: false,
-            over_drop: false,
-            near_drop: false,
         });
         let head = self.by_cell.push_front(ix, iy, i);
         self.next_in_cell.push(head);
@@ -782,7 +760,6 @@ impl TravMap {
         let dropped = drops >= MIN_DROP_CELLS;
         let blocked = steep || step || raised || dropped || self.body_hits(mls, n.ix, n.iy, &pl);
         let node = &mut self.nodes[i as usize];
-        node.over_drop = dropped;
         node.ground_z = pl.z_at(cx, cy) as f32;
         node.slope_deg = pl.slope_deg() as f32;
         node.normal = pl.normal().map(|v| v as f32);
@@ -829,10 +806,6 @@ impl TravMap {
         let n = self.nodes[i];
         let class = if n.class != TravClass::Traversable {
             n.class
-        } else if self.near_drop(&n) {
-            self.stats.near_drop += 1;
-            self.nodes[i].near_drop = true;
-            TravClass::Obstacle
         } else if n.touches_unobserved {
             TravClass::Frontier
         } else if n
@@ -853,23 +826,6 @@ impl TravMap {
             TravClass::Explorable => s.explorable += 1,
             TravClass::Frontier => s.frontier += 1,
         }
-    }
-}
-
-impl TravMap {
-    /// Whether a node within `drop_margin_links` links of `n` hangs over a
-    /// drop. Links, not cells: the same level only, so a floor under a
-    /// deck's rim keeps its ground.
-    fn near_drop(&self, n: &Node) -> bool {
-        let links = self.params.drop_margin_links;
-        let over = |j: u32| j != NONE && self.nodes[j as usize].over_drop;
-        links > 0
-            && n.neighbours.iter().any(|&j| {
-                over(j)
-                    || (links > 1
-                        && j != NONE
-                        && self.nodes[j as usize].neighbours.iter().any(|&k| over(k)))
-            })
     }
 }
 

@@ -34,13 +34,6 @@ pub struct TravParams {
     /// growth's lookups in the caches. Larger windows, and growth without
     /// one, hash their cells.
     pub max_window_cells: usize,
-    /// Drivable nodes this many links (0 to 2) from one whose footprint
-    /// hangs over a drop are obstacles too: a margin from an edge the
-    /// rover would fall off, where a wall only scrapes. Without it plans
-    /// ran 0.35 m from a garage ramp's open side (the footprint's radius
-    /// less a cell), and the rover, off its path by a little on the
-    /// ramp's slope, tipped over it.
-    pub drop_margin_links: u8,
 }
 
 impl Default for TravParams {
@@ -65,7 +58,6 @@ impl Default for TravParams {
             ransac_iterations: 24,
             max_nodes: 1 << 20,
             max_window_cells: 0,
-            drop_margin_links: 2,
         }
     }
 }
@@ -93,9 +85,6 @@ impl TravParams {
         }
         if !(self.max_gap_m >= 0.0 && self.max_gap_m <= 10.0) {
             return Err("max_gap_m must lie in 0..=10".into());
-        }
-        if self.drop_margin_links > 2 {
-            return Err("drop_margin_links must lie in 0..=2".into());
         }
         if self.max_slope_deg >= 90.0 || self.min_inliers < 3 || self.ransac_iterations == 0 {
             return Err(

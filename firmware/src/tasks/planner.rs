@@ -431,17 +431,13 @@ impl PlannerTask {
             .min(nodes.len());
         let q = &mut self.query;
         for (i, n) in nodes.iter().enumerate().take(to).skip(from) {
-            // The rover may stand in a drop's margin, and leave it.
-            if !n.standable() {
+            if !n.class.is_drivable() {
                 continue;
             }
             let p = trav.position(n);
             let ds = (p[0] - q.rover[0]).powi(2) + (p[1] - q.rover[1]).powi(2);
             if ds <= START_REACH_M * START_REACH_M && q.start.is_none_or(|(_, d)| ds < d) {
                 q.start = Some((i as u32, ds));
-            }
-            if !n.class.is_drivable() {
-                continue;
             }
             for k in 0..q.goal_count {
                 let g = q.goals[k].0;
@@ -1084,7 +1080,7 @@ impl PlannerTask {
                     if s.full {
                         self.counters.graphs_full += 1;
                     }
-                    let start_drivable = trav.node(0).is_some_and(|n| n.standable());
+                    let start_drivable = trav.node(0).is_some_and(|n| n.class.is_drivable());
                     if start_drivable {
                         self.phase = Phase::Pick { next: 0 };
                     } else if !self.begin_growth(mls, candidate + 1) {
