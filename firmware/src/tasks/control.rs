@@ -130,6 +130,34 @@ pub fn tilt_deg_of(q: [f64; 4]) -> f64 {
         .to_degrees()
 }
 
+/// Log the cell where the probe that made a map stop looked: its patch
+/// count, and the highest and lowest patch's extent, mean and whether
+/// they were seen from above. Plain numbers: a patch list formatted whole
+/// ran past the log line's buffer, which grew, and the control task
+/// allocated after start-up.
+fn log_probe_cell(map: &MlsMap, x: f64, y: f64) {
+    let (ix, iy) = map.cell_of(x, y);
+    let cell = map.cell(ix, iy);
+    let (Some(lo), Some(hi)) = (cell.first(), cell.last()) else {
+        tracing::debug!(x, y, patches = 0, "safety stop probe");
+        return;
+    };
+    tracing::debug!(
+        x,
+        y,
+        patches = cell.len(),
+        low_min = lo.min,
+        low_max = lo.max,
+        low_mean = lo.mean,
+        low_from_above = lo.seen_from_above,
+        high_min = hi.min,
+        high_max = hi.max,
+        high_mean = hi.mean,
+        high_from_above = hi.seen_from_above,
+        "safety stop probe"
+    );
+}
+
 /// The MLS map as the safety monitor probes it.
 pub struct MlsProbe<'a>(pub &'a MlsMap);
 
@@ -200,13 +228,7 @@ impl Task<Bus> for ControlTask {
                 let map = bus.surface.serving();
                 if let Some(r) = self.monitor.check(&input, &MlsProbe(map)) {
                     if let Some([px, py]) = self.monitor.trigger() {
-                        let (ix, iy) = map.cell_of(px, py);
-                        tracing::debug!(
-                            x = px,
-                            y = py,
-                            patches = ?map.cell(ix, iy),
-                            "safety stop probe"
-                        );
+                        log_probe_cell(map, px, py);
                     }
                     tracing::debug!(
                         reason = r.name(),
