@@ -131,29 +131,26 @@ pub fn tilt_deg_of(q: [f64; 4]) -> f64 {
 }
 
 /// Log the cell where the probe that made a map stop looked: its patch
-/// count, and the highest and lowest patch's extent, mean and whether
-/// they were seen from above. Plain numbers: a patch list formatted whole
-/// ran past the log line's buffer, which grew, and the control task
-/// allocated after start-up.
+/// count, the lowest patch's top and the highest one's bottom (cm), and
+/// whether each was seen from above. Short, whole centimetres: the patch
+/// list formatted whole, and then its floats, ran past the log line's
+/// buffer, which grew, and the control task allocated after start-up.
 fn log_probe_cell(map: &MlsMap, x: f64, y: f64) {
+    let cm = |v: f64| (v * 100.0).round() as i32;
     let (ix, iy) = map.cell_of(x, y);
     let cell = map.cell(ix, iy);
     let (Some(lo), Some(hi)) = (cell.first(), cell.last()) else {
-        tracing::debug!(x, y, patches = 0, "safety stop probe");
+        tracing::debug!(x_cm = cm(x), y_cm = cm(y), patches = 0, "safety stop probe");
         return;
     };
     tracing::debug!(
-        x,
-        y,
+        x_cm = cm(x),
+        y_cm = cm(y),
         patches = cell.len(),
-        low_min = lo.min,
-        low_max = lo.max,
-        low_mean = lo.mean,
-        low_from_above = lo.seen_from_above,
-        high_min = hi.min,
-        high_max = hi.max,
-        high_mean = hi.mean,
-        high_from_above = hi.seen_from_above,
+        low_top_cm = cm(lo.max.into()),
+        low_above = lo.seen_from_above,
+        high_bottom_cm = cm(hi.min.into()),
+        high_above = hi.seen_from_above,
         "safety stop probe"
     );
 }
