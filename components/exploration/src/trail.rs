@@ -76,19 +76,6 @@ impl Trail {
             .or_else(|| self.nearest(at))
     }
 
-    /// The most recent point up to point `last` within `reach_m` of `at`
-    /// across and on its level; None when there is none. A retrace that
-    /// follows a retrace goes on back from where the first one led: the
-    /// track's latest points near the rover are the first retrace's own,
-    /// and following them back took a garage rover from 1.6 m off home
-    /// back up to the ramp's edge it had just retraced from.
-    pub fn latest_near_up_to(&self, at: [f64; 3], reach_m: f64, last: usize) -> Option<usize> {
-        let end = (last + 1).min(self.points.len());
-        self.points[..end]
-            .iter()
-            .rposition(|p| near(p, at, reach_m))
-    }
-
     fn nearest(&self, at: [f64; 3]) -> Option<usize> {
         let dist = |p: &[f64; 3]| (p[0] - at[0]).hypot(p[1] - at[1]).hypot(p[2] - at[2]);
         (0..self.points.len()).min_by(|&a, &b| {
@@ -149,27 +136,6 @@ mod tests {
         let g = t.back_from(from, 2.5).expect("goal");
         assert!((g[0] - 2.5).abs() < 1e-9 && g[1] == 0.0, "{g:?}");
         assert_eq!(t.back_from(from, 50.0), Some([0.0, 0.0, 0.0]));
-    }
-
-    #[test]
-    fn a_second_retrace_goes_on_back_from_where_the_first_led() {
-        let mut t = Trail::new(1000, 1.0);
-        // Out along x to 10, then back along y = 0.5 to x = 5 (a retrace).
-        for k in 0..=10 {
-            t.record([k as f64, 0.0, 0.0]);
-        }
-        let first_end = 5;
-        for k in (5..10).rev() {
-            t.record([k as f64, 0.5, 0.0]);
-        }
-        let at = [5.0, 0.4, 0.0];
-        // The latest point near is the retrace's own end...
-        let late = t.latest_near(at, 2.0).expect("near");
-        assert_eq!(t.points()[late][1], 0.5);
-        // ...up to where the first retrace led, the way out.
-        let on = t.latest_near_up_to(at, 2.0, first_end).expect("near");
-        assert!(on <= first_end && t.points()[on][1] == 0.0);
-        assert_eq!(t.latest_near_up_to([50.0, 0.0, 0.0], 2.0, first_end), None);
     }
 
     #[test]

@@ -213,13 +213,6 @@ pub struct Exploration {
     escape_attempts: u32,
     /// Where the last retrace began, and whether it was driven backward.
     retraced_from: Option<([f64; 3], bool)>,
-    /// Exploring, where the last retrace driven led back to along the
-    /// track (the index of its last point) and the track's length then;
-    /// forgotten when a planned plan is driven (see
-    /// [`speleo_exploration::trail::Trail::latest_near_up_to`]).
-    retrace_led_to: Option<(usize, usize)>,
-    /// The same for the retrace shown, until it is driven or refused.
-    retrace_shown: Option<(usize, usize)>,
     /// Retraces refused in a row where the last one began.
     refused_here: u32,
     /// Plans in a row stopped for tilt where the one before was (see
@@ -292,8 +285,6 @@ impl Exploration {
             second_look_taken: false,
             escape_attempts: 0,
             retraced_from: None,
-            retrace_led_to: None,
-            retrace_shown: None,
             refused_here: 0,
             tilt_stalls: 0,
             last_tilt_stop: [f64::INFINITY; 3],
@@ -378,16 +369,10 @@ impl Exploration {
         // home by).
         let track = self.explorer.trail();
         let trail = track.points();
-        let exploring = !matches!(self.explorer.mode(), Mode::Returning(_));
-        // Where the last retrace led, unless the track was thinned since.
-        let led_to = self
-            .retrace_led_to
-            .filter(|&(_, len)| trail.len() >= len)
-            .and_then(|(last, _)| track.latest_near_up_to(pose, 2.0, last));
-        let from = if !exploring {
+        let from = if matches!(self.explorer.mode(), Mode::Returning(_)) {
             track.earliest_near(pose, 2.0)
         } else {
-            led_to.or_else(|| track.latest_near(pose, 2.0))
+            track.latest_near(pose, 2.0)
         };
         let Some(from) = from else {
             return false;
@@ -404,12 +389,10 @@ impl Exploration {
         let mut n = 0;
         points[n] = pose;
         n += 1;
-        let mut last = from;
-        for (i, p) in trail[..=from].iter().enumerate().rev() {
+        for p in trail[..=from].iter().rev() {
             if n == points.len() || left <= 0.0 {
                 break;
             }
-            last = i;
             let d = (p[0] - at[0]).hypot(p[1] - at[1]);
             if d < 0.05 {
                 // Where the rover stands: no direction to it.
@@ -420,7 +403,6 @@ impl Exploration {
             n += 1;
             at = *p;
         }
-        self.retrace_shown = exploring.then_some((last, trail.len()));
         // Driven forward, the rover turning round where it must. When the
         // last retrace began here and got nowhere, the other way: in a
         // mesh world's junction, turning round onto the track tilted the
@@ -462,7 +444,6 @@ impl Exploration {
         if !validate {
             self.executing = query;
             self.counters.plans_executed += 1;
-            self.retrace_led_to = self.retrace_shown.take();
         }
         bus.exploration.goal = Some(points[n - 1]);
         bus.plan.publish(now, msg);
@@ -477,7 +458,6 @@ impl Exploration {
     /// other way, burned the rest of the mission: 1,337 of them.)
     pub fn retrace_refused(&mut self) {
         self.counters.retraces_refused += 1;
-        self.retrace_shown = None;
         self.stranded = true;
         self.refused_here += 1;
         if self.refused_here < RETRACE_REFUSALS_HERE {
@@ -638,8 +618,6 @@ impl Exploration {
     pub fn driving(&mut self, query: u64) {
         self.executing = query;
         self.counters.plans_executed += 1;
-        // A retrace shown and passed, or a planned plan (none shown).
-        self.retrace_led_to = self.retrace_shown.take();
         self.explorer.driven();
         self.refused_here = 0;
         self.back_out = false;
@@ -925,41 +903,6 @@ mod tests {
         e.retrace(&mut bus, 2, 2, 5.0);
         let home = end(&bus).unwrap_or_else(|| panic!("no retrace"));
         assert!(home[0] < 6.0, "{home:?}");
-    }
-
-    #[test]
-    fn a_retrace_after_a_retrace_goes_on_back_instead_of_undoing_it() {
-        let mut e = exploration();
-        let mut bus = Bus::new();
-        // Out to 20 m along y = 0, and back to 10 m along y = 0.2.
-        for k in 0..=20 {
-            e.explorer.observe(k as f64, [k as f64, 0.0, 0.0]);
-        }
-        for k in (10..20).rev() {
-            e.explorer.observe(40.0 - k as f64, [k as f64, 0.2, 0.0]);
-        }
-        let end = |bus: &Bus| bus.plan.get().and_then(|p| p.value.poses.last().copied());
-        at(&mut bus, [10.0, 0.1, 0.0]);
-        e.retrace(&mut bus, 1, 1, 5.0);
-        let first = end(&bus).unwrap_or_else(|| panic!("no retrace"));
-        assert!(first[0] > 14.0 && first[0] < 16.0, "{first:?}");
-        // Driven: the rover's track now ends where the retrace led.
-        for k in 11..=15 {
-            e.explorer.observe(40.0 + k as f64, [k as f64, 0.15, 0.0]);
-        }
-        at(&mut bus, [15.0, 0.15, 0.0]);
-        e.retrace(&mut bus, 2, 2, 5.0);
-        let second = end(&bus).unwrap_or_else(|| panic!("no retrace"));
-        // On back the way the rover came (out toward 20 m and home from
-        // there), not back to 10 m where the first began.
-        assert!(second[0] > 17.0 || second[1] < 0.1, "{second:?}");
-        assert!((second[0] - 10.0).abs() > 2.0, "{second:?}");
-        // A planned plan driven: the next retrace starts afresh.
-        e.driving(3);
-        at(&mut bus, [15.0, 0.15, 0.0]);
-        e.retrace(&mut bus, 4, 4, 5.0);
-        let afresh = end(&bus).unwrap_or_else(|| panic!("no retrace"));
-        assert!(afresh[0] < 12.0, "{afresh:?}");
     }
 
     #[test]
