@@ -208,22 +208,6 @@ fn level_at(samples: &[Sample], i: usize) -> bool {
 /// drop begins (beside a ramp driven down, seen-through columns past its
 /// side 1 m away sank the simulated ramp under the rover).
 const EDGE_OUT_M: f64 = 0.3;
-/// Unseen columns with nothing at all seen this far outward, and no
-/// ground at the plan's level this far, are a void (see `void_past`), m...
-const VOID_OUT_M: f64 = 1.0;
-const VOID_CLEAR_M: f64 = 2.5;
-/// ...when seen ground lies within this much inward, m: a rim (the
-/// strip's vertices lie 0.3 m apart across it).
-const VOID_INWARD_M: f64 = 0.6;
-/// The void is looked for from this far out, m: just past a rim the
-/// columns hold the rim's own voxels (the signed distance's truncation,
-/// and the scans' registration spread), free space and no surface.
-const VOID_SKIP_M: f64 = 0.15;
-/// A void is laid only within this of a sensor that stood on the plan's
-/// level (in x and y), m: further out the rings lie more than the walk's
-/// 0.85 m apart on the ground, and a lava tube's floor at 5.7 m from the
-/// only keyframe read as a void, the plan refused.
-const VOID_NEAR_M: f64 = 3.0;
 /// The walk's step, m (the simulated world's voxel).
 const EDGE_STEP_M: f64 = 0.05;
 /// Seen ground within this much under the planner's is level ground, m.
@@ -272,7 +256,7 @@ fn over_edge(terrain: &Terrain, at: [f64; 2], z: f64, from: [f64; 2]) -> Option<
     let dir = [dx / out, dy / out];
     let xy = |t: f64| (at[0] + t * dir[0], at[1] + t * dir[1]);
     let steps = (EDGE_OUT_M / EDGE_STEP_M).round() as usize;
-    let found = (0..=steps).map(|k| k as f64 * EDGE_STEP_M).find_map(|t| {
+    let (beyond, z_out) = (0..=steps).map(|k| k as f64 * EDGE_STEP_M).find_map(|t| {
         let (x, y) = xy(t);
         if t > 0.0
             && terrain
@@ -287,16 +271,7 @@ fn over_edge(terrain: &Terrain, at: [f64; 2], z: f64, from: [f64; 2]) -> Option<
         } else {
             None
         }
-    });
-    let void = found.is_none()
-        && terrain.near_origin(at[0], at[1], z, VOID_NEAR_M)
-        && void_past(terrain, &xy, z);
-    let (beyond, z_out) = match found {
-        Some(v) => v?,
-        // Past the void's rim the ground is gone from the vertex on.
-        None if void => (0.0, z - SEEN_THROUGH_DROP_M),
-        None => return None,
-    };
+    })??;
     // The seen ground inward: the first column (no further in than
     // `from`), and one further in for its slope.
     let seen_in = |from_t: f64, to_t: f64| {
@@ -318,10 +293,6 @@ fn over_edge(terrain: &Terrain, at: [f64; 2], z: f64, from: [f64; 2]) -> Option<
     // on a ramp's middle, the pad laid as a drop behind the rover tipped
     // the simulated rover over at once, plan after plan.
     let (behind, g1) = seen_in(EDGE_STEP_M, out)?;
-    // A void begins at a rim: seen ground just inward, not a broad hole.
-    if void && behind > VOID_INWARD_M {
-        return None;
-    }
     // Ground sloping down outward reaches the plane by itself: the rays
     // that went down through it there met the slope going on, not a drop
     // (past the end of a plan that stops halfway down a ramp).
@@ -332,37 +303,6 @@ fn over_edge(terrain: &Terrain, at: [f64; 2], z: f64, from: [f64; 2]) -> Option<
         }
     }
     Some(z + (z_out - z) * behind / (behind + beyond))
-}
-
-/// Whether nothing at all was seen outward of an unseen column (`xy(t)`,
-/// t from `VOID_SKIP_M` to `VOID_OUT_M`) from a little over the planner's
-/// ground `z` down to `EDGE_DOWN_M` under it (no ground, no lower floor,
-/// no wall, not even free space in front of one), nor ground at its level
-/// out to `VOID_CLEAR_M` (or the box's side). Past a roof's rim with
-/// nothing in range below, the rays that went over it returned nothing,
-/// and the strip laid level ground over the void: a garage rover's
-/// U-turn by the roof's rim passed the simulation, and the true one
-/// turned over the edge. A ring gap is narrower: the next ring's ground,
-/// or the free space in front of it, lies within the walk; and a wider
-/// hole with the floor seen again beyond it is a hole, not a rim.
-fn void_past(terrain: &Terrain, xy: &impl Fn(f64) -> (f64, f64), z: f64) -> bool {
-    let step = |m: f64| (m / EDGE_STEP_M).round() as usize;
-    let empty = step(VOID_OUT_M);
-    (step(VOID_SKIP_M)..=step(VOID_CLEAR_M)).all(|k| {
-        let (x, y) = xy(k as f64 * EDGE_STEP_M);
-        if !terrain.near([x, y, z], 0.0) {
-            // Nothing is known past the box: a void only once the
-            // empty stretch is behind.
-            return k > empty;
-        }
-        if k <= empty {
-            !terrain.column_seen(x, y, z + SEARCH_UP_M, z - EDGE_DOWN_M)
-        } else {
-            terrain
-                .surface_z(x, y, z + SEARCH_UP_M, z - EDGE_LEVEL_M)
-                .is_none()
-        }
-    })
 }
 
 /// Samples along `path`, at most `STEP_M` apart, with `beyond` more at
@@ -555,14 +495,9 @@ mod tests {
 
     /// A floor at 0 up to x = 2, seen from a sensor 1 m over the origin;
     /// past it, `beyond(x)` from x = 4 on (the edge hides x = 2..4 when
-    /// it lies a metre down; NaN: nothing seen), nothing between. Rays down through 0.15 m
+    /// it lies a metre down), nothing between. Rays down through 0.15 m
     /// under the floor are counted, as for a plan on the floor.
     fn edge_scene(beyond: impl Fn(f64) -> f64) -> Terrain {
-        edge_scene_from([0.0, 0.0, 1.0], beyond)
-    }
-
-    /// `edge_scene` seen from `origin`.
-    fn edge_scene_from(origin: [f64; 3], beyond: impl Fn(f64) -> f64) -> Terrain {
         let mut t = Terrain::new(&crate::SimulatorParams::default()).expect("terrain");
         t.begin([-2.0, -2.0, -1.5], [6.0, 2.0, 2.5], -0.15);
         let mut pts = Vec::new();
@@ -571,12 +506,12 @@ mod tests {
                 let (x, y) = (-2.0 + 0.05 * i as f64, -2.0 + 0.05 * j as f64);
                 if x < 2.0 {
                     pts.push([x, y, 0.0]);
-                } else if x >= 4.0 && !beyond(x).is_nan() {
+                } else if x >= 4.0 {
                     pts.push([x, y, beyond(x)]);
                 }
             }
         }
-        t.integrate(origin, &mut pts);
+        t.integrate([0.0, 0.0, 1.0], &mut pts);
         t
     }
 
@@ -613,38 +548,6 @@ mod tests {
         for z in outer_edge_vertices(&t) {
             assert!((z + DROP_M).abs() < 1e-6, "{z}");
         }
-    }
-
-    #[test]
-    fn past_a_rim_with_nothing_seen_beyond_the_strip_drops() {
-        // The floor ends at x = 2 and nothing at all is seen past it (no
-        // ground in range below): the rays over the rim returned nothing.
-        let t = edge_scene(|_| f64::NAN);
-        assert!(!t.seen_through(2.5, 0.0, 0.0));
-        let outer = outer_edge_vertices(&t);
-        assert!(!outer.is_empty());
-        for z in outer {
-            assert!(z < -0.3, "{z}: the strip stood over the void");
-        }
-        // The same rim 1.5 m from a strip along it: nothing is laid.
-        let path = [[0.5, -1.0, 0.0], [0.5, 1.0, 0.0]];
-        let m = strip(&t, &path, 0.6, 0.0, None);
-        assert!(m.vertices.iter().all(|v| v[2] as f64 > -0.1));
-    }
-
-    #[test]
-    fn far_from_every_sensor_nothing_seen_is_no_void() {
-        // The same rim seen from 4 m back: there the rings lie wider
-        // apart than the walk, and nothing seen may be a ring gap.
-        let t = edge_scene_from([-2.0, 0.0, 1.0], |_| f64::NAN);
-        let outer = outer_edge_vertices(&t);
-        assert!(!outer.is_empty());
-        for z in outer {
-            assert!(z > -0.1, "{z}: a void laid 4 m from the sensor");
-        }
-        // From a sensor on a level 2 m below, the rim is not near one.
-        let t = edge_scene_from([0.0, 0.0, -1.0], |_| f64::NAN);
-        assert!(outer_edge_vertices(&t).iter().all(|&z| z > -0.1));
     }
 
     #[test]

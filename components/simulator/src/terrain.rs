@@ -29,13 +29,6 @@ const THROUGH_DEEP_M: f64 = 0.15;
 const THROUGH_ORIGIN_M: f64 = 0.5;
 /// Rays that make a column seen through: one stray ray is noise.
 const THROUGH_RAYS: u8 = 2;
-/// Sensor origins kept per world (the keyframes integrated, at most
-/// `newest_keyframes`; more are not kept, and their ground counts as
-/// far from any).
-const ORIGINS: usize = 64;
-/// A sensor counts as over ground at `z` from this much over it to this
-/// much, m (the LiDAR is ~0.52 m over the ground it stands on).
-const ORIGIN_OVER_M: (f64, f64) = (0.25, 1.5);
 
 /// The points a world reads of the clouds (`InternalSim::read_region`):
 /// inside the box, or under the see-through plane with their rays down
@@ -91,8 +84,6 @@ pub(crate) struct Terrain {
     through_nx: usize,
     through_ny: usize,
     through_z: f64,
-    /// The integrated clouds' sensor origins (see [`near_origin`](Self::near_origin)).
-    origins: Vec<[f64; 3]>,
 }
 
 impl Terrain {
@@ -123,7 +114,6 @@ impl Terrain {
             through_nx: 0,
             through_ny: 0,
             through_z: f64::NEG_INFINITY,
-            origins: Vec::with_capacity(ORIGINS),
         })
     }
 
@@ -149,7 +139,6 @@ impl Terrain {
         self.through_ny = cells(1);
         self.through[..self.through_nx * self.through_ny].fill(0);
         self.through_z = through_z;
-        self.origins.clear();
     }
 
     /// The see-through grid's index of the column at `x`, `y`.
@@ -199,20 +188,6 @@ impl Terrain {
                 .is_some_and(|c| self.through[c] >= THROUGH_RAYS)
     }
 
-    /// Whether a cloud was seen from within `range` (in x and y) of the
-    /// column at `x`, `y`, from a sensor standing on ground at `z` (see
-    /// `ORIGIN_OVER_M`). Near a sensor its rings lie close on the ground
-    /// (~0.4 m apart at 3 m, ~1 m at 5.7 m), so a stretch with nothing seen
-    /// at all is a void there, and only a ring gap further out.
-    pub fn near_origin(&self, x: f64, y: f64, z: f64, range: f64) -> bool {
-        self.origins.iter().any(|o| {
-            let over = o[2] - z;
-            over >= ORIGIN_OVER_M.0
-                && over <= ORIGIN_OVER_M.1
-                && (o[0] - x).hypot(o[1] - y) <= range
-        })
-    }
-
     /// Whether `p` lies in the box grown by `grow` in x and y.
     pub fn near(&self, p: [f64; 3], grow: f64) -> bool {
         (0..2).all(|k| p[k] >= self.lo[k] - grow && p[k] <= self.hi[k] + grow)
@@ -222,10 +197,6 @@ impl Terrain {
     /// margin) seen from `origin`; the number integrated.
     pub fn integrate(&mut self, origin: [f64; 3], points: &mut Vec<[f64; 3]>) -> u64 {
         self.count_through(origin, points);
-        // A cloud comes in several slices from one origin.
-        if self.origins.last() != Some(&origin) && self.origins.len() < ORIGINS {
-            self.origins.push(origin);
-        }
         let (lo, hi) = self.integrated_box();
         points.retain(|p| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]));
         self.tsdf.integrate(origin, points).integrated
@@ -266,19 +237,6 @@ impl Terrain {
             vz -= 1;
         }
         None
-    }
-
-    /// Whether any voxel of the column at `x`, `y` between `top` and
-    /// `bottom` was seen (free space in front of a surface, or behind
-    /// it). False outside the box too: nothing is known there.
-    pub fn column_seen(&self, x: f64, y: f64, top: f64, bottom: f64) -> bool {
-        let [vx, vy, top] = self.tsdf.voxel_of([x, y, top]);
-        let bottom = self.tsdf.voxel_of([x, y, bottom])[2];
-        (bottom..=top).any(|vz| {
-            self.tsdf
-                .voxel([vx, vy, vz])
-                .is_some_and(|s| s.weight > 0.0)
-        })
     }
 
     /// Tile `i`'s corners in x and y.
