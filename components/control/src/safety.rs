@@ -172,7 +172,7 @@ pub struct SafetyMonitor {
     /// When the plan left to drive was last seen to shrink, and its
     /// smallest value since the reset.
     best_left: Option<(f64, f64)>,
-    /// Where the ground probe that made the last map stop was (see
+    /// Where the probe that made the last check's map stop looked (see
     /// [`trigger`](Self::trigger)).
     trigger: Option<[f64; 2]>,
 }
