@@ -181,7 +181,7 @@ fn triangulate_grid(mesh: &mut Mesh, rows: usize, cols: usize) {
 /// shadow of an edge (see [`over_edge`]).
 fn vertex(terrain: &Terrain, x: f64, y: f64, z: f64, from: Option<[f64; 2]>) -> [f32; 3] {
     let ground = terrain
-        .surface_z(x, y, z + SEARCH_UP_M, z - SEARCH_DOWN_M)
+        .open_ground_z(x, y, z + SEARCH_UP_M, z - SEARCH_DOWN_M)
         .or_else(|| over_edge(terrain, [x, y], z, from?))
         .unwrap_or(z);
     [x as f32, y as f32, (ground - DROP_M) as f32]
@@ -490,6 +490,43 @@ mod tests {
         for v in &far.vertices {
             let expect = 1.0 + 0.2 * (v[0] as f64 - 7.0) - DROP_M;
             assert!((v[2] as f64 - expect).abs() < 1e-5, "{v:?}");
+        }
+    }
+
+    #[test]
+    fn a_hole_in_a_slabs_top_is_not_laid_on_the_floor_under_the_slab() {
+        // A slab 0.25 m thick, its top at 0.75 m, over x in [1, 5]: seen
+        // from a sensor beside it at floor level (its underside and side,
+        // and the floor under it), never from above. The strip along its
+        // top follows the planner's ground, not the floor 0.75 m down.
+        let mut t = Terrain::new(&crate::SimulatorParams::default()).expect("terrain");
+        t.begin([-2.0, -2.0, -1.5], [6.0, 2.0, 2.5], f64::NEG_INFINITY);
+        let mut pts = Vec::new();
+        for i in 0..160 {
+            for j in 0..80 {
+                let (x, y) = (-2.0 + 0.05 * i as f64, -2.0 + 0.05 * j as f64);
+                pts.push([x, y, 0.0]);
+                if (1.0..=5.0).contains(&x) {
+                    pts.push([x, y, 0.5]);
+                }
+            }
+        }
+        for k in 0..5 {
+            for j in 0..80 {
+                pts.push([1.0, -2.0 + 0.05 * j as f64, 0.5 + 0.05 * k as f64]);
+            }
+        }
+        t.integrate([-1.0, 0.0, 0.3], &mut pts);
+        let path = [[2.0, 0.0, 0.75], [4.0, 0.0, 0.75]];
+        let m = strip(&t, &path, 0.4, 0.0, None);
+        assert!(!m.vertices.is_empty());
+        for v in &m.vertices {
+            assert!((v[2] as f64 - (0.75 - DROP_M)).abs() < 1e-5, "{v:?}");
+        }
+        // The floor beside the slab, with nothing over it, is still found.
+        let floor = strip(&t, &[[-1.5, -1.0, 0.0], [-1.5, 1.0, 0.0]], 0.3, 0.0, None);
+        for v in &floor.vertices {
+            assert!((v[2] as f64 + DROP_M).abs() < 0.05, "{v:?}");
         }
     }
 

@@ -219,6 +219,28 @@ impl Terrain {
     /// centres). `None` where the column holds no such crossing: a hole in
     /// the scans, or inside a rock.
     pub fn surface_z(&self, x: f64, y: f64, top: f64, bottom: f64) -> Option<f64> {
+        self.column_ground(x, y, top, bottom, false)
+    }
+
+    /// As [`surface_z`](Self::surface_z), but `None` where an underside
+    /// (behind a surface walking down, then free space) lies over the
+    /// ground found: that ground lies under a slab, not under a hole in
+    /// the slab's top. A ramp's top the rings missed, over a floor they
+    /// saw under it, was laid on that floor: the strip sank into a pit a
+    /// metre deep in the middle of the garage's first ramp, and plans up
+    /// it tipped the simulated rover over while the real one drove them.
+    pub fn open_ground_z(&self, x: f64, y: f64, top: f64, bottom: f64) -> Option<f64> {
+        self.column_ground(x, y, top, bottom, true)
+    }
+
+    fn column_ground(
+        &self,
+        x: f64,
+        y: f64,
+        top: f64,
+        bottom: f64,
+        stop_at_underside: bool,
+    ) -> Option<f64> {
         let [vx, vy, mut vz] = self.tsdf.voxel_of([x, y, top]);
         let end = self.tsdf.voxel_of([x, y, bottom])[2];
         let mut above: Option<(f64, f32)> = None;
@@ -230,6 +252,9 @@ impl Terrain {
                     let zb = self.tsdf.voxel_center(v)[2];
                     let f = f64::from(a / (a - b.tsdf));
                     return Some(za + (zb - za) * f);
+                }
+                (Some((_, a)), Some(b)) if stop_at_underside && a <= 0.0 && b.tsdf > 0.0 => {
+                    return None;
                 }
                 _ => {}
             }
