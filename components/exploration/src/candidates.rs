@@ -43,6 +43,18 @@ pub struct CandidateParams {
     /// exploration with a third of its floor unseen); taking such tight
     /// goals from the start sends the rover along every wall.
     pub tight_clearance_m: f64,
+    /// When neither pass finds anything, a third takes crests: border
+    /// patches at least this much over the ground the rover stands on,
+    /// m. The LiDAR, 0.6 m up, grazes such ground at best and never sees
+    /// past it: 1.5 m short of a garage ramp's top, the next level's
+    /// edge lay 0.43 m over the rover's ground, too near and covered, and
+    /// the rover turned back down without once looking over it.
+    pub crest_rise_m: f64,
+    /// Crests are looked for this far from the rover at most, and at
+    /// least `crest_min_distance_m`, m: the pass is for the ground just
+    /// ahead that one short drive shows.
+    pub crest_reach_m: f64,
+    pub crest_min_distance_m: f64,
 }
 
 impl Default for CandidateParams {
@@ -57,6 +69,9 @@ impl Default for CandidateParams {
             rejected_radius_m: 1.5,
             clearance_m: 0.45,
             tight_clearance_m: 0.15,
+            crest_rise_m: 0.25,
+            crest_reach_m: 4.0,
+            crest_min_distance_m: 0.5,
         }
     }
 }
@@ -76,6 +91,10 @@ pub struct ScanCensus {
     pub covered: u32,
     pub rejected: u32,
     pub cramped: u32,
+    /// In the crest pass: scanned patches that are no crest (not at the
+    /// border, not `crest_rise_m` over the rover, out of reach, or stood
+    /// as high near already).
+    pub no_crest: u32,
     /// The scanned node farthest from the rover, and its distance, m.
     pub farthest: [f64; 3],
     pub farthest_m: f64,
@@ -91,6 +110,18 @@ pub struct Candidate {
     pub unexplored_m2: f64,
 }
 
+/// The passes of a scan, in order: each runs only when the ones before
+/// found nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pass {
+    /// Patches with `clearance_m` of room.
+    Roomy,
+    /// Patches with `tight_clearance_m` of room (a squeeze's waist).
+    Tight,
+    /// Crests just over the rover (`crest_rise_m`), near or covered.
+    Crest,
+}
+
 /// A scan of the graph for candidates, in slices.
 #[derive(Clone, Debug)]
 pub struct CandidateScan {
@@ -99,8 +130,9 @@ pub struct CandidateScan {
     rover: [f64; 2],
     target: Option<[f64; 2]>,
     window: Option<Window>,
-    /// The second pass, with `tight_clearance_m`.
-    tight: bool,
+    pass: Pass,
+    /// The ground under the rover (the graph's first node), for crests.
+    rover_ground_z: Option<f64>,
     best: heapless::Vec<Candidate, MAX_CANDIDATES>,
     census: ScanCensus,
 }
@@ -113,7 +145,8 @@ impl CandidateScan {
             rover: [0.0; 2],
             target: None,
             window: None,
-            tight: false,
+            pass: Pass::Roomy,
+            rover_ground_z: None,
             best: heapless::Vec::new(),
             census: ScanCensus::default(),
         }
@@ -129,27 +162,35 @@ impl CandidateScan {
         self.rover = rover;
         self.target = target;
         self.window = window;
-        self.tight = false;
+        self.pass = Pass::Roomy;
         self.best.clear();
         self.census = ScanCensus::default();
     }
 
-    /// Scan again with the tight clearance (after a pass that found
-    /// nothing); false when this pass was the tight one already.
-    pub fn tighten(&mut self) -> bool {
-        if self.tight {
-            return false;
-        }
-        self.tight = true;
+    /// Scan again in the next pass (after one that found nothing): tight
+    /// places, then crests; false when this pass was the last.
+    pub fn next_pass(&mut self) -> bool {
+        self.pass = match self.pass {
+            Pass::Roomy => Pass::Tight,
+            Pass::Tight => Pass::Crest,
+            Pass::Crest => return false,
+        };
         self.next = 0;
         self.best.clear();
+        // The crest pass counts only its own misses: why the others found
+        // nothing stays in the census.
+        let before = self.census;
         self.census = ScanCensus::default();
+        if self.pass == Pass::Crest {
+            self.census.too_near = before.too_near;
+            self.census.covered = before.covered;
+        }
         true
     }
 
-    /// This pass takes tight goals.
-    pub fn is_tight(&self) -> bool {
-        self.tight
+    /// The pass under way.
+    pub fn pass(&self) -> Pass {
+        self.pass
     }
 
     /// Score more nodes until `work` units are spent (a node looked at,
@@ -165,6 +206,9 @@ impl CandidateScan {
         work: u64,
     ) -> bool {
         let all = trav.nodes().len();
+        if self.next == 0 {
+            self.rover_ground_z = trav.node(0).map(|n| n.ground_z as f64);
+        }
         let mut census = self.census;
         let mut spent = 0u64;
         while self.next < all && spent < work.max(1) {
@@ -269,13 +313,28 @@ impl CandidateScan {
             census.inner += 1;
             return None;
         }
-        if d < self.p.min_distance_m {
-            census.too_near += 1;
-            return None;
-        }
-        if coverage.covered(p[0], p[1], p[2]) {
-            census.covered += 1;
-            return None;
+        if self.pass == Pass::Crest {
+            // Near and covered or not: only ground over the rover that it
+            // has not yet stood as high as near here.
+            let rise = self.rover_ground_z.map_or(f64::NEG_INFINITY, |g| p[2] - g);
+            let reach = self.p.crest_min_distance_m..=self.p.crest_reach_m;
+            if !border_class || rise < self.p.crest_rise_m || !reach.contains(&d) {
+                census.no_crest += 1;
+                return None;
+            }
+            if coverage.stood_as_high(p[0], p[1], p[2]) {
+                census.no_crest += 1;
+                return None;
+            }
+        } else {
+            if d < self.p.min_distance_m {
+                census.too_near += 1;
+                return None;
+            }
+            if coverage.covered(p[0], p[1], p[2]) {
+                census.covered += 1;
+                return None;
+            }
         }
         let r2 = self.p.rejected_radius_m.powi(2);
         if rejected
@@ -285,10 +344,9 @@ impl CandidateScan {
             census.rejected += 1;
             return None;
         }
-        let clearance = if self.tight {
-            self.p.tight_clearance_m
-        } else {
-            self.p.clearance_m
+        let clearance = match self.pass {
+            Pass::Tight => self.p.tight_clearance_m,
+            Pass::Roomy | Pass::Crest => self.p.clearance_m,
         };
         if obstacle_near(trav, n.ix, n.iy, n.ground_z, clearance, work) {
             census.cramped += 1;

@@ -136,6 +136,17 @@ impl CoverageMap {
         self.marked(x, y) && !self.within(x, y, z, LEVEL_BAND_M)
     }
 
+    /// Whether the rover has been near (x, y) as high as `z` or higher
+    /// (its pose's height, which rides some 0.2 m over the ground): a
+    /// crest it stood on or over is no longer one to look over.
+    pub fn stood_as_high(&self, x: f64, y: f64, z: f64) -> bool {
+        self.marked(x, y)
+            && self.level_index(x, y).is_some_and(|i| {
+                let (lo, hi) = self.levels[i];
+                lo <= hi && hi as f64 >= z * 100.0
+            })
+    }
+
     /// Whether (x, y) lies near the rover's track, at any height.
     fn marked(&self, x: f64, y: f64) -> bool {
         let (ix, iy) = self.cell(x, y);
@@ -202,5 +213,17 @@ mod tests {
         // Once the rover stands up there, it is covered.
         c.mark(2.0, 0.0, 6.1, 3.0);
         assert!(c.covered(2.0, 0.0, 6.0));
+    }
+
+    #[test]
+    fn a_crest_is_stood_as_high_once_the_rover_was_up_there() {
+        let mut c = CoverageMap::new([0.0, 0.0], 20.0, 0.25);
+        assert!(!c.stood_as_high(1.0, 0.0, 5.8), "never near");
+        c.mark(0.0, 0.0, 5.57, 3.0);
+        assert!(!c.stood_as_high(1.5, 0.0, 5.8));
+        assert!(c.stood_as_high(1.5, 0.0, 5.5));
+        c.mark(1.5, 0.0, 5.99, 3.0);
+        assert!(c.stood_as_high(1.5, 0.0, 5.8));
+        assert!(!c.stood_as_high(6.0, 0.0, 5.8), "out of reach of the marks");
     }
 }

@@ -12,7 +12,7 @@ pub mod coverage;
 pub mod explorer;
 pub mod trail;
 
-pub use candidates::{Candidate, CandidateParams, CandidateScan, ScanCensus, MAX_CANDIDATES};
+pub use candidates::{Candidate, CandidateParams, CandidateScan, Pass, ScanCensus, MAX_CANDIDATES};
 pub use coverage::CoverageMap;
 pub use explorer::{Explorer, ExplorerParams, Mode, ReturnReason};
 pub use trail::Trail;

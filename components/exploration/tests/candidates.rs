@@ -1,7 +1,7 @@
 //! Candidates on a synthetic corridor: a floor between two walls, seen to
 //! x = 12 m, closed behind the rover at x = 0.
 
-use speleo_exploration::{CandidateParams, CandidateScan, CoverageMap, MAX_CANDIDATES};
+use speleo_exploration::{CandidateParams, CandidateScan, CoverageMap, Pass, MAX_CANDIDATES};
 use speleo_mapping::mls::{MlsMap, MlsParams};
 use speleo_traversability::{TravMap, TravParams, Window};
 
@@ -189,19 +189,21 @@ fn the_waist_of_a_squeeze_is_a_candidate_only_when_nothing_roomier_is_left() {
     s.begin([0.0, 0.0], None, None);
     while !s.step(&t, &cov, &[], 100) {}
     assert!(s.best().is_empty(), "{:?}", s.best());
-    assert!(s.tighten());
-    assert!(s.is_tight());
+    assert!(s.next_pass());
+    assert_eq!(s.pass(), Pass::Tight);
     while !s.step(&t, &cov, &[], 100) {}
     let best = s.best();
     assert!(!best.is_empty());
     // At the squeeze's open end, on its middle line.
     assert!(best[0].position[0] > 5.5, "{:?}", best[0]);
     assert!(best[0].position[1].abs() < 0.25, "{:?}", best[0]);
-    // Once: a tight pass is the last.
-    assert!(!s.tighten());
+    // Then the crests, and no more passes.
+    assert!(s.next_pass());
+    assert_eq!(s.pass(), Pass::Crest);
+    assert!(!s.next_pass());
     // A new scan starts roomy again.
     s.begin([0.0, 0.0], None, None);
-    assert!(!s.is_tight());
+    assert_eq!(s.pass(), Pass::Roomy);
 }
 
 #[test]
@@ -224,4 +226,73 @@ fn ground_on_another_level_than_the_rover_drove_is_a_candidate_border_or_not() {
     assert!(scan(&t, &cov, &[], 100)
         .iter()
         .all(|c| c.position[0] > 11.0));
+}
+
+/// A 14° ramp up +x from x = -1 to 4 m (a metre and a quarter up), seen
+/// 0.6 m onto the level at its top and no farther, as from a rover 1.5 m
+/// short of the top, whose LiDAR grazes the level; walls on both sides and
+/// behind.
+fn ramp_top() -> TravMap {
+    let mut m = MlsMap::new(MlsParams::default()).expect("mls");
+    let rise = |x: f64| 0.25 * (x.min(4.0) + 1.0);
+    let mut pts = Vec::new();
+    let mut x = -0.975;
+    while x < 4.6 {
+        let mut y = -1.475;
+        while y < 1.5 {
+            pts.push([x, y, rise(x)]);
+            y += 0.05;
+        }
+        for wall_y in [-1.6, 1.6] {
+            let mut h = rise(x);
+            while h < rise(x) + 1.5 {
+                pts.push([x, wall_y, h]);
+                h += 0.05;
+            }
+        }
+        x += 0.05;
+    }
+    m.insert_points(&pts);
+    points(&mut m, (-1.2, -1.0), (-1.7, 1.7), (0.0, 1.5));
+    let mut t = TravMap::new(TravParams::default()).expect("trav");
+    t.build(&m, [2.5, 0.0, rise(2.5)]).expect("build");
+    t
+}
+
+#[test]
+fn a_crest_just_over_the_rover_is_a_candidate_only_when_nothing_else_is() {
+    let t = ramp_top();
+    let rover_z = 0.25 * 3.5 + 0.19;
+    let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    cov.mark(0.0, 0.0, 0.44, 3.0);
+    cov.mark(2.5, 0.0, rover_z, 3.0);
+    let mut s = CandidateScan::new(CandidateParams::default());
+    let passes = |s: &mut CandidateScan, cov: &CoverageMap| {
+        s.begin([2.5, 0.0], None, None);
+        loop {
+            while !s.step(&t, cov, &[], 100) {}
+            if !s.best().is_empty() || !s.next_pass() {
+                return (s.pass(), s.best().to_vec());
+            }
+        }
+    };
+    // The level's edge is too near or covered: neither roomy nor tight
+    // goals, but a crest at the top, over the ramp's end.
+    let (pass, best) = passes(&mut s, &cov);
+    assert_eq!(pass, Pass::Crest);
+    assert!(!best.is_empty());
+    assert!(best[0].position[0] > 3.8, "{:?}", best[0]);
+    assert!(best[0].position[2] > 1.1, "{:?}", best[0]);
+    // Refused there: no crest is left.
+    let rejected = [[best[0].position[0], best[0].position[1]]];
+    s.begin([2.5, 0.0], None, None);
+    for _ in 0..3 {
+        while !s.step(&t, &cov, &rejected, 100) {}
+        assert!(s.best().is_empty(), "{:?}", s.best());
+        s.next_pass();
+    }
+    // Once the rover stood at the top, it is no crest any more.
+    cov.mark(4.2, 0.0, 1.25 + 0.19, 3.0);
+    let (_, best) = passes(&mut s, &cov);
+    assert!(best.is_empty(), "{best:?}");
 }

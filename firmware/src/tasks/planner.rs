@@ -26,7 +26,7 @@ use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_traversability::{TravMap, Window};
 
-use speleo_exploration::{Mode, ReturnReason};
+use speleo_exploration::{Mode, Pass, ReturnReason};
 use speleo_simulator::{Outcome, Stance};
 
 use crate::bus::{Bus, PlanMsg};
@@ -535,10 +535,20 @@ impl PlannerTask {
         if !done {
             return Phase::Candidates;
         }
-        // Nothing with room to spare: the tight places (a squeeze's waist)
-        // before giving up here.
-        if scan.best().is_empty() && scan.tighten() {
+        // Nothing with room to spare: the tight places (a squeeze's waist),
+        // then the crests just over the rover, before giving up here.
+        if scan.best().is_empty() && scan.next_pass() {
             return Phase::Candidates;
+        }
+        if scan.pass() == Pass::Crest {
+            if let Some(c) = scan.best().first() {
+                tracing::debug!(
+                    x = c.position[0],
+                    y = c.position[1],
+                    z = c.position[2],
+                    "a crest to look over"
+                );
+            }
         }
         counters.scans += 1;
         let found = !scan.best().is_empty();
@@ -600,6 +610,7 @@ impl PlannerTask {
                 covered = c.covered,
                 rejected = c.rejected,
                 cramped = c.cramped,
+                no_crest = c.no_crest,
                 farthest_m = c.farthest_m,
                 farthest_x = c.farthest[0],
                 farthest_y = c.farthest[1],
