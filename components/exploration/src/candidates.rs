@@ -46,7 +46,7 @@ pub struct CandidateParams {
     /// When neither pass finds anything, a third takes crests: border
     /// patches at least this much over the ground the rover stands on,
     /// m. The LiDAR, 0.6 m up, grazes such ground at best and never sees
-    /// past it: 1.5 m short of a garage ramp's top, the next level's
+    /// past it: 1.7 m short of a garage ramp's top, the next level's
     /// edge lay 0.43 m over the rover's ground, too near and covered, and
     /// the rover turned back down without once looking over it.
     pub crest_rise_m: f64,
