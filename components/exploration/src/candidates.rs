@@ -318,11 +318,11 @@ impl CandidateScan {
             // has not yet stood as high as near here.
             let rise = self.rover_ground_z.map_or(f64::NEG_INFINITY, |g| p[2] - g);
             let reach = self.p.crest_min_distance_m..=self.p.crest_reach_m;
-            if !border_class || rise < self.p.crest_rise_m || !reach.contains(&d) {
-                census.no_crest += 1;
-                return None;
-            }
-            if coverage.stood_as_high(p[0], p[1], p[2]) {
+            if !border_class
+                || rise < self.p.crest_rise_m
+                || !reach.contains(&d)
+                || coverage.stood_as_high(p[0], p[1], p[2])
+            {
                 census.no_crest += 1;
                 return None;
             }
