@@ -64,6 +64,17 @@ pub struct SurfaceParams {
     /// tube's rover stuck on a 0.135 m rock 77 m in); where there is room
     /// around it, the path goes round (0: off).
     pub bump_weight: f64,
+    /// Edge cost: a primitive's time is multiplied by `1 + weight x (1 -
+    /// d / reach)`, `d` the least distance from its path to a drop the map
+    /// has seen (a cell with nothing near the path node's support plane
+    /// and ground seen under it) within `edge_reach_m` (0: off). The
+    /// traversability map refuses a node only when its footprint hangs
+    /// over a drop; a path just inside that, along a ramp's open side,
+    /// has its wheels on the rim: in the simulated garage the rover,
+    /// planned along ramp 1's south side, tilted 20 degrees at the edge
+    /// and was stranded there.
+    pub edge_weight: f64,
+    pub edge_reach_m: f64,
 }
 
 /// Bumps lower than this over a node's support plane cost nothing: the
@@ -82,6 +93,8 @@ impl Default for SurfaceParams {
             turn_slope_free_deg: 8.0,
             turn_slope_weight_per_deg: 0.5,
             bump_weight: 0.0,
+            edge_weight: 0.0,
+            edge_reach_m: 0.8,
         }
     }
 }
@@ -141,6 +154,9 @@ pub struct SurfaceLattice {
     /// Per node: squared distance (cells) to the nearest cell within that
     /// circle with something in the body's band (`u16::MAX`: none).
     blocked_d2: Vec<u16>,
+    /// Per node: squared distance (cells) to the nearest drop cell within
+    /// `edge_reach_m` (`u16::MAX`: none, or the edge term is off).
+    edge_d2: Vec<u16>,
     /// Per node: the tallest bump over its support plane under the body's
     /// inscribed circle, as a fraction of the way from [`BUMP_FLOOR_M`]
     /// to the ground clearance, in 1/255 (0 with `bump_weight` 0).
@@ -148,6 +164,10 @@ pub struct SurfaceLattice {
     /// Squared inscribed radius of the body, cells: a node with something
     /// seen nearer collides in every orientation.
     inscribed_d2: f64,
+    /// How far under a node's support plane ground must lie to make a
+    /// cell a drop, m: the traversability map's band for ground that
+    /// continues a node's (its step plus its slope over the footprint).
+    drop_tol: f32,
     /// The start's cell: what the map shows within [`ESCAPE_CELLS`] of it
     /// does not stop a primitive (see [`SurfaceLattice::set_escape`]).
     escape: Option<(i32, i32)>,
@@ -212,6 +232,9 @@ impl SurfaceLattice {
             return Err("too many states: lower max_nodes".into());
         }
         let inscribed_d2 = (p.body_width_m / 2.0 / res).powi(2);
+        let tp = trav.params();
+        let drop_tol =
+            tp.max_step_m + (tp.footprint_radius_m * tp.max_slope_deg.to_radians().tan()) as f32;
         let mut actions = vec![Vec::new(); prims.angles as usize];
         for prim in &prims.primitives {
             if let Some(a) = surface_action(prim, prims.angles, res, &p) {
@@ -227,8 +250,10 @@ impl SurfaceLattice {
             body_free: Vec::with_capacity(n),
             clear: Vec::with_capacity(n),
             blocked_d2: Vec::with_capacity(n),
+            edge_d2: Vec::with_capacity(n),
             bump: Vec::with_capacity(n),
             inscribed_d2,
+            drop_tol,
             escape: None,
             heuristic: Vec::with_capacity(n),
             solid: Vec::with_capacity(max_grid_cells),
@@ -323,6 +348,7 @@ impl SurfaceLattice {
         self.body_free.clear();
         self.clear.clear();
         self.blocked_d2.clear();
+        self.edge_d2.clear();
         self.bump.clear();
         self.heuristic.clear();
         self.heuristic.resize(n, INFINITE_COST);
@@ -437,6 +463,32 @@ impl SurfaceLattice {
         row.chunks_exact(2).all(|iv| !(iv[1] >= lo && iv[0] <= hi))
     }
 
+    /// Whether cell `(ix, iy)` is a drop from `ground`: nothing seen near
+    /// that height (within the traversability map's ground band) and
+    /// something seen under it. A cell with nothing seen is no drop: what
+    /// the rings missed on a ramp is not an edge, nor is a cell the graph
+    /// holds a node in near that height. The traversability map's test
+    /// for a footprint over a drop, out to the edge term's reach.
+    fn drop_at(&self, ix: i32, iy: i32, ground: f32) -> bool {
+        let (gx, gy) = (ix - self.origin.0, iy - self.origin.1);
+        if gx < 0 || gy < 0 || gx as usize >= self.dims.0 || gy as usize >= self.dims.1 {
+            return false;
+        }
+        let tol = self.drop_tol;
+        let (lo, hi) = (ground - tol, ground + tol);
+        let row = &self.solid[gy as usize * self.dims.0 + gx as usize];
+        // NaN (unused) pairs compare false on both counts.
+        let near = row.chunks_exact(2).any(|iv| iv[1] >= lo && iv[0] <= hi);
+        !near
+            && row.chunks_exact(2).any(|iv| iv[1] < lo)
+            // Ground the graph bridged there (a fleck of floor seen through
+            // a gap in the rings) is ground.
+            && !self
+                .trav
+                .nodes_in_cell(ix, iy)
+                .any(|j| (self.trav.nodes()[j as usize].ground_z - ground).abs() <= tol)
+    }
+
     /// Height of node `nd`'s support plane over the centre of cell
     /// `(ix, iy)`.
     fn plane_z(&self, nd: &speleo_traversability::Node, ix: i32, iy: i32) -> f32 {
@@ -466,18 +518,32 @@ impl SurfaceLattice {
         let r2 = (radius / res).powi(2);
         let nd = nodes[i];
         let free = self.band_free(nd.ix, nd.iy, nd.ground_z);
-        // The nearest cell (squared, in cells) with something in the band.
+        let e2 = if self.p.edge_weight > 0.0 {
+            (self.p.edge_reach_m / res).powi(2)
+        } else {
+            -1.0
+        };
+        let reach = reach.max(e2.max(0.0).sqrt().ceil() as i32);
+        // The nearest cell (squared, in cells) with something in the band,
+        // and the nearest drop.
         let mut nearest = u16::MAX;
+        let mut edge = u16::MAX;
         if free {
             for dy in -reach..=reach {
                 for dx in -reach..=reach {
                     let d2 = dx * dx + dy * dy;
-                    if d2 as f64 > r2 || d2 >= nearest as i32 {
+                    let band = d2 as f64 <= r2 && d2 < nearest as i32;
+                    let drop = d2 as f64 <= e2 && d2 < edge as i32;
+                    if !band && !drop {
                         continue;
                     }
                     let (ix, iy) = (nd.ix + dx, nd.iy + dy);
-                    if !self.band_free(ix, iy, self.plane_z(&nd, ix, iy)) {
+                    let ground = self.plane_z(&nd, ix, iy);
+                    if band && !self.band_free(ix, iy, ground) {
                         nearest = d2 as u16;
+                    }
+                    if drop && self.drop_at(ix, iy, ground) {
+                        edge = d2 as u16;
                     }
                 }
             }
@@ -494,6 +560,7 @@ impl SurfaceLattice {
         self.body_free.push(free);
         self.clear.push(clear);
         self.blocked_d2.push(nearest);
+        self.edge_d2.push(edge);
         Prep::Clear(i + 1)
     }
 
@@ -630,6 +697,7 @@ impl SurfaceLattice {
         let mut cur = n;
         let mut all_clear = self.clear[n as usize];
         let mut nearest_d2 = self.blocked_d2[n as usize];
+        let mut edge_d2 = self.edge_d2[n as usize];
         let mut length_3d = 0.0;
         let mut length_xy = 0.0;
         let mut steepest_deg = nodes[n as usize].slope_deg;
@@ -659,6 +727,7 @@ impl SurfaceLattice {
             cur = next;
             all_clear &= self.clear[cur as usize];
             nearest_d2 = nearest_d2.min(self.blocked_d2[cur as usize]);
+            edge_d2 = edge_d2.min(self.edge_d2[cur as usize]);
             bump = bump.max(self.bump[cur as usize]);
             path.push(cur);
         }
@@ -707,7 +776,16 @@ impl SurfaceLattice {
         };
         let b = bump as f64 / 255.0;
         let bumpy = self.p.bump_weight * b * b;
-        let time = linear.max(turn) * (1.0 + self.p.clearance_weight * crowding) * (1.0 + bumpy);
+        let edgy = if edge_d2 == u16::MAX || self.p.edge_weight <= 0.0 {
+            0.0
+        } else {
+            let d = (edge_d2 as f64).sqrt() * res;
+            self.p.edge_weight * (1.0 - d / self.p.edge_reach_m).clamp(0.0, 1.0)
+        };
+        let time = linear.max(turn)
+            * (1.0 + self.p.clearance_weight * crowding)
+            * (1.0 + bumpy)
+            * (1.0 + edgy);
         let ms = (1000.0 * time).ceil() as u64 * a.cost_mult as u64;
         Some((cur, ms.min(INFINITE_COST as u64 - 1) as u32))
     }

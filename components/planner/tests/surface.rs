@@ -376,3 +376,77 @@ fn turning_round_at_a_ramps_foot_costs_what_turning_on_the_ramp_does() {
         plan_with(&m, start, goal, free).cost
     );
 }
+
+/// A deck 1.5 m up, 3 m wide, with its open side at y = 3 over a floor
+/// the map has seen; `holes`: a cell of the deck in every metre along
+/// y = 1.5 that the rings missed, through which the floor was seen.
+fn deck(holes: bool) -> MlsMap {
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    let hole =
+        |x: f64, y: f64| holes && x.fract() >= 0.5 && x.fract() < 0.6 && (1.5..1.6).contains(&y);
+    let mut pts = Vec::new();
+    for i in 0..200 {
+        for j in 0..60 {
+            let (x, y) = (0.025 + 0.05 * i as f64, 0.025 + 0.05 * j as f64);
+            pts.push([x, y, if hole(x, y) { 0.0 } else { 1.5 }]);
+        }
+    }
+    m.insert_points(&pts);
+    surface(&mut m, (0.0, 10.0), (3.0, 5.0), |_, _| 0.0);
+    m
+}
+
+#[test]
+fn an_edge_weight_keeps_the_path_off_a_decks_open_side() {
+    let m = deck(false);
+    let (start, goal) = ([1.0, 2.6, 1.5, 0.0], [9.0, 2.6, 1.5, 0.0]);
+    let plain = plan(&m, start, goal);
+    let wary = plan_with(
+        &m,
+        start,
+        goal,
+        SurfaceParams {
+            edge_weight: 2.0,
+            ..SurfaceParams::default()
+        },
+    );
+    let (Some(c0), Some(c1)) = (plain.cost, wary.cost) else {
+        panic!("no plan");
+    };
+    assert!(c1 > c0, "{c1} <= {c0}");
+    // Farthest from the edge the path gets in the middle of the deck.
+    let off_edge = |p: &Plan| {
+        p.path
+            .iter()
+            .filter(|q| (3.0..=7.0).contains(&q[0]))
+            .map(|q| 3.0 - q[1])
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    assert!(off_edge(&plain) < 0.5, "{:.2} m", off_edge(&plain));
+    // Out of the reach (0.8 m between cell centres) where it can.
+    assert!(off_edge(&wary) >= 0.7, "{:.2} m", off_edge(&wary));
+}
+
+#[test]
+fn a_hole_in_the_deck_the_graph_bridges_is_no_edge() {
+    // Single cells of the deck where only the floor under it was seen,
+    // on the line: too few under a footprint to make it hang over a drop,
+    // and bridged by the graph, so they are ground. The open side, 1.5 m
+    // from the line, is beyond the reach: the edge costs nothing.
+    let m = deck(true);
+    let (start, goal) = ([1.0, 1.55, 1.5, 0.0], [9.0, 1.55, 1.5, 0.0]);
+    let cost = |w: f64| {
+        plan_with(
+            &m,
+            start,
+            goal,
+            SurfaceParams {
+                edge_weight: w,
+                ..SurfaceParams::default()
+            },
+        )
+        .cost
+    };
+    assert!(cost(0.0).is_some(), "no plan");
+    assert_eq!(cost(0.0), cost(2.0));
+}

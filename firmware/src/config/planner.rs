@@ -58,6 +58,12 @@ pub struct PlannerConfig {
     /// the planner README); 0: off. At 10 a rock 0.1 m tall costs a path
     /// 6.6 times its travel time.
     pub bump_weight: f64,
+    /// Extra cost near a drop the map has seen (a ramp's open side, a
+    /// ledge's rim): travel time times `1 + weight x (1 - d / reach)`,
+    /// `d` the least distance from the path to the drop within
+    /// `edge_reach_m` (see the planner README); 0: off.
+    pub edge_weight: f64,
+    pub edge_reach_m: f64,
     /// An SBPL `.mprim` file at the map's resolution; empty: the
     /// generated set for the rover (`speleo primitives`).
     pub mprim: String,
@@ -89,6 +95,8 @@ impl Default for PlannerConfig {
             body_width_m: s.body_width_m + 2.0 * BODY_MARGIN_M,
             clearance_weight: s.clearance_weight,
             bump_weight: 10.0,
+            edge_weight: 2.0,
+            edge_reach_m: s.edge_reach_m,
             mprim: String::new(),
             step_units: PlannerStepUnits::default(),
         }
@@ -196,9 +204,18 @@ impl PlannerConfig {
         for (k, v) in [
             ("planner.clearance_weight", self.clearance_weight),
             ("planner.bump_weight", self.bump_weight),
+            ("planner.edge_weight", self.edge_weight),
         ] {
             range(k, v, 0.0, 100.0, "0..=100")?;
         }
+        // Within the cells each node's circle is looked at for.
+        range(
+            "planner.edge_reach_m",
+            self.edge_reach_m,
+            0.1,
+            2.0,
+            "0.1..=2",
+        )?;
         self.step_units.validate()
     }
 
@@ -221,6 +238,8 @@ impl PlannerConfig {
             body_width_m: self.body_width_m,
             clearance_weight: self.clearance_weight,
             bump_weight: self.bump_weight,
+            edge_weight: self.edge_weight,
+            edge_reach_m: self.edge_reach_m,
             ..speleo_planner::surface::SurfaceParams::default()
         }
     }
