@@ -260,11 +260,6 @@ pub struct Bus {
     pub drive_stop: Latest<StopReasons>,
     pub odom: Latest<OdomPose>,
     pub slam: Latest<SlamPose>,
-    /// SLAM has a keyframe under way, or one to take where the rover
-    /// stands at rest (the last lies farther than `slam.rest_keyframe_m`):
-    /// the maps do not yet show what the rover sees from here. Written by
-    /// slam.
-    pub slam_keyframe_due: bool,
     /// The odometry poses of the last frames, stamped with the frame time,
     /// for deskewing LiDAR revolutions. Written by the odometry task only.
     pub odom_history: PoseHistory,
@@ -327,7 +322,6 @@ impl Bus {
             counters: Counters::default(),
             safe_mode_request: false,
             recovery_ready: false,
-            slam_keyframe_due: false,
             timing: Timing::default(),
             mode: Mode::Nominal,
         })

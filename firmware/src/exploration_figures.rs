@@ -49,9 +49,6 @@ pub struct ExplorationFigures {
     /// part of a refused plan the simulated rover drove well (up to a
     /// metre short of where it failed).
     pub partial_plans: u64,
-    /// Queries begun before the maps held the keyframe taken where the
-    /// rover stopped (after waiting the most allowed).
-    pub maps_waits_cut: u64,
     /// Going home without a plan from where the rover stood: drives back
     /// along its own track.
     pub retraces: u64,
@@ -97,7 +94,6 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         plans_executed: e.counters.plans_executed,
         plans_completed: c.plans_completed,
         partial_plans: e.counters.partial_plans,
-        maps_waits_cut: e.counters.maps_waits_cut,
         retraces: e.counters.retraces,
         retraces_refused: e.counters.retraces_refused,
         resumes: e.counters.resumes,

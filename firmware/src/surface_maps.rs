@@ -10,8 +10,6 @@ pub struct SurfaceMaps {
     active: usize,
     /// Changes whenever the serving map changes (an insertion or a swap).
     generation: u64,
-    /// Keyframes wholly in the serving map (the first ones of the store).
-    keyframes_in: usize,
 }
 
 impl SurfaceMaps {
@@ -21,7 +19,6 @@ impl SurfaceMaps {
             maps: [MlsMap::new(params.clone())?, MlsMap::new(params)?],
             active: 0,
             generation: 0,
-            keyframes_in: 0,
         })
     }
 
@@ -68,15 +65,6 @@ impl SurfaceMaps {
 
     pub fn generation(&self) -> u64 {
         self.generation
-    }
-
-    /// How many of the store's keyframes the serving map holds whole.
-    pub fn keyframes_in(&self) -> usize {
-        self.keyframes_in
-    }
-
-    pub fn set_keyframes_in(&mut self, n: usize) {
-        self.keyframes_in = n;
     }
 
     /// Both maps' fixed memory.

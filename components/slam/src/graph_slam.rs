@@ -37,14 +37,6 @@ pub struct SlamParams {
     pub submap_keyframes: usize,
     pub keyframe_distance_m: f64,
     pub keyframe_angle_deg: f64,
-    /// A scan taken at rest becomes a keyframe already this far (or this
-    /// much turned) from the last one: where the rover stops is where it
-    /// plans from next, and the maps must show what it sees from there.
-    /// Stopped 1.6 m short of a garage ramp's top, the rover's last
-    /// keyframe could lie a metre back down the ramp, 0.24 m lower, where
-    /// the LiDAR sees nothing of the level above.
-    pub rest_keyframe_m: f64,
-    pub rest_keyframe_deg: f64,
     /// Voxel size of the registration clouds.
     pub voxel_m: f64,
     /// Returns farther than this from the sensor stay out of keyframes
@@ -122,8 +114,6 @@ impl Default for SlamParams {
             submap_keyframes: 5,
             keyframe_distance_m: 1.0,
             keyframe_angle_deg: 15.0,
-            rest_keyframe_m: 0.25,
-            rest_keyframe_deg: 5.0,
             voxel_m: 0.2,
             max_range_m: 10.0,
             max_scan_points: 12_000,
@@ -472,30 +462,23 @@ impl GraphSlam {
         }
     }
 
-    /// Whether a scan taken at odometry pose `odom` (with the rover at
-    /// rest all through it, or not) should become a keyframe.
-    pub fn wants_keyframe(&self, odom: &Pose, at_rest: bool) -> bool {
+    /// Whether a scan taken at odometry pose `odom` should become a keyframe.
+    pub fn wants_keyframe(&self, odom: &Pose) -> bool {
         let Some(kf) = self.keyframes.last() else {
             return true;
         };
         let rel = kf.odom.between(odom);
-        let (moved, turned) = (rel.t.norm(), crate::lie::log_so3(&rel.r).norm());
-        let (m, deg) = if at_rest {
-            (self.p.rest_keyframe_m, self.p.rest_keyframe_deg)
-        } else {
-            (self.p.keyframe_distance_m, self.p.keyframe_angle_deg)
-        };
-        moved >= m || turned >= deg.to_radians()
+        let angle = crate::lie::log_so3(&rel.r).norm();
+        rel.t.norm() >= self.p.keyframe_distance_m
+            || angle >= self.p.keyframe_angle_deg.to_radians()
     }
 
-    /// Offer a scan (base frame, deskewed) taken at `odom`, the rover at
-    /// rest through it or not; returns whether it was taken as the next
-    /// keyframe.
+    /// Offer a scan (base frame, deskewed) taken at `odom`; returns whether
+    /// it was taken as the next keyframe.
     pub fn offer_scan(
         &mut self,
         stamp_ns: u64,
         odom: Pose,
-        at_rest: bool,
         up_imu: Vector3<f64>,
         points: impl IntoIterator<Item = [f64; 3]>,
     ) -> bool {
@@ -507,7 +490,7 @@ impl GraphSlam {
             self.stats.keyframes_refused += 1;
             return false;
         }
-        if !self.wants_keyframe(&odom, at_rest) {
+        if !self.wants_keyframe(&odom) {
             return false;
         }
         self.pending.clear();
@@ -1055,44 +1038,6 @@ mod tests {
             s.add(0.9, 1.0);
         }
         assert!((s.get() - 0.9).abs() < 0.005, "{}", s.get());
-    }
-
-    #[test]
-    fn a_scan_at_rest_is_a_keyframe_sooner_than_one_on_the_move() {
-        use super::{GraphSlam, SlamParams};
-        use crate::lie::Pose;
-        use nalgebra::Matrix3;
-        // A first keyframe: a floor of points around the rover.
-        let params = SlamParams {
-            max_scan_points: 2000,
-            keyframe_capacity: 4,
-            ..SlamParams::default()
-        };
-        let mut slam = GraphSlam::new(params);
-        let floor = (0..400).map(|i| {
-            [
-                (i % 20) as f64 * 0.3 - 3.0,
-                (i / 20) as f64 * 0.3 - 3.0,
-                -0.5,
-            ]
-        });
-        assert!(slam.offer_scan(0, Pose::identity(), false, Vector3::z(), floor));
-        while slam.step() {}
-        assert_eq!(slam.keyframes().len(), 1);
-        let ahead = |x: f64| Pose::new(Matrix3::identity(), Vector3::new(x, 0.0, 0.0));
-        let turned = |deg: f64| {
-            let r = nalgebra::Rotation3::from_euler_angles(0.0, 0.0, deg.to_radians());
-            Pose::new(*r.matrix(), Vector3::zeros())
-        };
-        // On the move: a metre or 15 degrees.
-        assert!(!slam.wants_keyframe(&ahead(0.5), false));
-        assert!(slam.wants_keyframe(&ahead(1.0), false));
-        assert!(!slam.wants_keyframe(&turned(10.0), false));
-        // At rest: a quarter of a metre or 5 degrees.
-        assert!(slam.wants_keyframe(&ahead(0.3), true));
-        assert!(!slam.wants_keyframe(&ahead(0.2), true));
-        assert!(slam.wants_keyframe(&turned(6.0), true));
-        assert!(!slam.wants_keyframe(&turned(4.0), true));
     }
 
     #[test]

@@ -59,14 +59,7 @@ pub struct ExplorationCounters {
     /// well, was driven when no goal of the query passed (see
     /// [`Partial`]).
     pub partial_plans: u64,
-    /// Queries begun without the maps showing what the rover sees where
-    /// it stopped, after [`MAPS_WAIT_MAX_S`] of waiting.
-    pub maps_waits_cut: u64,
 }
-
-/// After `settle_s`, a query waits at most this long for the maps to
-/// hold the keyframe taken where the rover stopped, s.
-pub const MAPS_WAIT_MAX_S: f64 = 5.0;
 
 /// A retrace that left the rover within this of where it began got
 /// nowhere: the next one from there goes the other way, m.
@@ -855,19 +848,6 @@ impl Exploration {
         if now < since + self.settle_ns {
             return false;
         }
-        // The next goal is chosen on what the rover sees from where it
-        // stands: 1.6 m short of a garage ramp's top, the maps still held
-        // the view from a metre back down, which shows nothing of the level
-        // above, and the rover turned back.
-        let behind =
-            bus.slam_keyframe_due || bus.surface.keyframes_in() < bus.keyframe_clouds.ready();
-        if behind {
-            if now < since + self.settle_ns + (MAPS_WAIT_MAX_S * 1e9) as u64 {
-                return false;
-            }
-            self.counters.maps_waits_cut += 1;
-            tracing::debug!("a query begun before the maps show where the rover stopped");
-        }
         self.idle_since = None;
         true
     }
@@ -923,32 +903,6 @@ mod tests {
         e.retrace(&mut bus, 2, 2, 5.0);
         let home = end(&bus).unwrap_or_else(|| panic!("no retrace"));
         assert!(home[0] < 6.0, "{home:?}");
-    }
-
-    #[test]
-    fn a_query_waits_for_the_maps_to_show_where_the_rover_stopped() {
-        // Settled 1 s after the rover came to rest, but SLAM has a keyframe
-        // to take there: no query until it has, and the maps hold it.
-        let mut e = exploration();
-        let mut bus = Bus::new();
-        at(&mut bus, [0.0, 0.0, 0.0]);
-        e.observe(&mut bus, 0);
-        bus.slam_keyframe_due = true;
-        let s = 1_000_000_000;
-        assert!(!e.ready(&bus, 0));
-        assert!(!e.ready(&bus, s + 1));
-        bus.slam_keyframe_due = false;
-        assert!(e.ready(&bus, 2 * s));
-        assert_eq!(e.counters.maps_waits_cut, 0);
-        // A keyframe that never comes holds the next query back no more
-        // than MAPS_WAIT_MAX_S after the settling, and is counted.
-        bus.slam_keyframe_due = true;
-        let t0 = 3 * s;
-        assert!(!e.ready(&bus, t0));
-        let cut = t0 + s + (MAPS_WAIT_MAX_S * 1e9) as u64;
-        assert!(!e.ready(&bus, cut - 1));
-        assert!(e.ready(&bus, cut));
-        assert_eq!(e.counters.maps_waits_cut, 1);
     }
 
     #[test]

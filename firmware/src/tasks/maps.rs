@@ -279,17 +279,12 @@ impl Task<Bus> for MapsTask {
     fn run(&mut self, _bus: &mut Bus, _cx: &Context) {}
 
     fn step(&mut self, bus: &mut Bus, _cx: &Context, quantum: u32) -> StepResult {
-        let mut result = StepResult::Continue;
         for _ in 0..quantum.max(1) {
             if !self.work(bus) {
-                result = StepResult::Idle;
-                break;
+                return StepResult::Idle;
             }
         }
-        // The keyframe part-way in is not yet in.
-        let whole = self.inserted.len() - usize::from(self.adding.is_some());
-        bus.surface.set_keyframes_in(whole);
-        result
+        StepResult::Continue
     }
 }
 

@@ -26,12 +26,6 @@ const SLOW_UNIT_NS: u64 = 1_000_000;
 /// Returns closer than this hit the rover itself.
 const MIN_RANGE_M: f32 = 0.6;
 
-/// A revolution over which the odometry moved less than this, m and rad,
-/// was taken at rest (a rover driving at its slowest, 3 cm/s, moves 3 mm
-/// in one).
-const REST_MOVE_M: f64 = 0.002;
-const REST_TURN_RAD: f64 = 0.003;
-
 pub struct SlamTask {
     slam: GraphSlam,
     /// `slam.enabled`: when off, the task publishes the odometry pose.
@@ -49,9 +43,8 @@ pub struct SlamTask {
     ranges: Vec<f32>,
     /// ...and, a part per step, in the base frame at the first firing.
     points: Vec<[f64; 3]>,
-    /// When and where the staged revolution began, and whether the rover
-    /// was at rest through it.
-    staged: Option<(u64, Pose, bool)>,
+    /// When and where the staged revolution began.
+    staged: Option<(u64, Pose)>,
     /// Mapping: returns within this range go to the keyframe clouds on the
     /// bus (`None`: no maps), thinned to this many points...
     map_range_m: Option<f32>,
@@ -162,12 +155,7 @@ impl SlamTask {
             return;
         };
         let odom0 = Pose::from_isometry(&odom0);
-        // At rest: the odometry did not move over the revolution.
-        let at_rest = bus.odom_history.at(c.stamp_ns).is_some_and(|end| {
-            let rel = odom0.between(&Pose::from_isometry(&end));
-            rel.t.norm() < REST_MOVE_M && speleo_slam::lie::log_so3(&rel.r).norm() < REST_TURN_RAD
-        });
-        if !self.slam.wants_keyframe(&odom0, at_rest) {
+        if !self.slam.wants_keyframe(&odom0) {
             return;
         }
         self.raw.clear();
@@ -195,13 +183,13 @@ impl SlamTask {
         if self.map_range_m.is_some() {
             bus.keyframe_clouds.begin();
         }
-        self.staged = Some((t0, odom0, at_rest));
+        self.staged = Some((t0, odom0));
     }
 
     /// Move the next part of the staged revolution into the base frame and
     /// deskew it; when all of it is done, offer it to SLAM as a keyframe.
     fn deskew_part(&mut self, bus: &mut Bus) {
-        let Some((t0, odom0, at_rest)) = self.staged else {
+        let Some((t0, odom0)) = self.staged else {
             return;
         };
         let from = self.points.len();
@@ -261,7 +249,7 @@ impl SlamTask {
             .zip(ranges)
             .filter(move |(_, &r)| r <= slam_range)
             .map(|(p, _)| *p);
-        let taken = self.slam.offer_scan(t0, odom0, at_rest, up, scan);
+        let taken = self.slam.offer_scan(t0, odom0, up, scan);
         if taken && self.map_range_m.is_some() {
             bus.keyframe_clouds.commit();
         }
@@ -280,13 +268,6 @@ impl Task<Bus> for SlamTask {
                 *q.to_rotation_matrix().matrix(),
                 Vector3::from(o.value.position),
             );
-            // A keyframe to come where the rover stands: the store not
-            // full, and the last one out of the rest distance.
-            let room = self.slam.keyframes().len() < self.slam.params().keyframe_capacity;
-            bus.slam_keyframe_due = self.enabled
-                && (self.staged.is_some()
-                    || !self.slam.is_idle()
-                    || (room && self.slam.wants_keyframe(&odom, true)));
             let p = self.slam.pose(&odom);
             let q = UnitQuaternion::from_rotation_matrix(
                 &nalgebra::Rotation3::from_matrix_unchecked(p.r),
