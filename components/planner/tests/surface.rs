@@ -195,6 +195,17 @@ fn a_level_nothing_leads_to_is_not_planned_to() {
 
 #[test]
 fn a_lattice_prepared_in_slices_equals_one_prepared_at_once() {
+    // With the edge term too, whose nodes are checked fewer to a unit.
+    let edges = SurfaceParams {
+        edge_weight: 2.0,
+        ..SurfaceParams::default()
+    };
+    for params in [SurfaceParams::default(), edges] {
+        prepared_in_slices_equals_prepared_at_once(&params);
+    }
+}
+
+fn prepared_in_slices_equals_prepared_at_once(params: &SurfaceParams) {
     let m = world();
     let lattice = |units: usize| {
         let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
@@ -204,7 +215,7 @@ fn a_lattice_prepared_in_slices_equals_one_prepared_at_once() {
             .node_at(11.5, 1.5, 1.0, 0.3)
             .unwrap_or_else(|| panic!("no goal node"));
         let prims = generate(&PrimitiveSpec::default());
-        let mut lat = SurfaceLattice::new(trav, &prims, SurfaceParams::default(), 200 * 200)
+        let mut lat = SurfaceLattice::new(trav, &prims, params.clone(), 200 * 200)
             .unwrap_or_else(|e| panic!("{e}"));
         lat.begin((goal, 0)).unwrap_or_else(|e| panic!("{e}"));
         let mut steps = 0;
