@@ -296,3 +296,48 @@ fn a_crest_just_over_the_rover_is_a_candidate_only_when_nothing_else_is() {
     let (_, best) = passes(&mut s, &cov);
     assert!(best.is_empty(), "{best:?}");
 }
+
+#[test]
+fn a_rover_climbing_a_ramp_looks_over_its_top_first() {
+    let t = ramp_top();
+    let rover_z = 0.25 * 3.5 + 0.19;
+    let mut cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    cov.mark(2.5, 0.0, rover_z, 3.0);
+    let mut s = CandidateScan::new(CandidateParams::default());
+    let first = |s: &mut CandidateScan, yaw: f64| {
+        s.begin([2.5, 0.0], None, None);
+        s.facing(yaw);
+        assert_eq!(s.pass(), Pass::Uphill);
+        while !s.step(&t, &cov, &[], 100) {}
+        s.best().to_vec()
+    };
+    // Facing up the ramp: the crest at its top, before any other pass.
+    let best = first(&mut s, 0.0);
+    assert!(!best.is_empty());
+    assert!(best[0].position[0] > 3.8, "{:?}", best[0]);
+    assert!(best[0].position[1].abs() < 1.0, "{:?}", best[0]);
+    // Facing down it, or across it: the pass finds nothing, and the
+    // usual ones follow.
+    for yaw in [std::f64::consts::PI, std::f64::consts::FRAC_PI_2] {
+        assert!(first(&mut s, yaw).is_empty(), "yaw {yaw}");
+        assert!(s.next_pass());
+        assert_eq!(s.pass(), Pass::Roomy);
+    }
+    // Without a heading the scan starts roomy, as before.
+    s.begin([2.5, 0.0], None, None);
+    assert_eq!(s.pass(), Pass::Roomy);
+}
+
+#[test]
+fn on_flat_ground_the_uphill_pass_finds_nothing() {
+    let t = squeeze();
+    let cov = CoverageMap::new([0.0, 0.0], 100.0, 0.25);
+    let mut s = CandidateScan::new(CandidateParams::default());
+    s.begin([0.0, 0.0], None, None);
+    s.facing(0.0);
+    while !s.step(&t, &cov, &[], 100) {}
+    assert!(s.best().is_empty(), "{:?}", s.best());
+    assert_eq!(s.census().scanned, 0, "not climbing: no node looked at");
+    assert!(s.next_pass());
+    assert_eq!(s.pass(), Pass::Roomy);
+}

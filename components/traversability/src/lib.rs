@@ -9,10 +9,12 @@
 //! - [`plane`]: the deterministic RANSAC support plane.
 //! - [`map`]: the graph, its growth, classes and queries.
 
+pub mod blocked;
 mod cell_heads;
 pub mod map;
 pub mod params;
 pub mod plane;
 
+pub use blocked::Blocked;
 pub use map::{BuildError, BuildStats, Node, TravClass, TravMap, Window, NONE};
 pub use params::TravParams;

@@ -24,6 +24,7 @@ use std::collections::VecDeque;
 use speleo_mapping::mls::{drop_at, ground_near, CellSlot, MlsMap, Patch, PatchKind};
 use thiserror::Error;
 
+use crate::blocked::Blocked;
 use crate::cell_heads::CellHeads;
 use crate::params::TravParams;
 use crate::plane;
@@ -92,6 +93,8 @@ pub struct Node {
     pub patch_z: f32,
     pub ground_z: f32,
     pub class: TravClass,
+    /// Why it is an obstacle (empty otherwise).
+    pub blocked: Blocked,
     pub slope_deg: f32,
     /// Unit normal of the support plane (up when there is none).
     pub normal: [f32; 3],
@@ -294,6 +297,7 @@ impl TravMap {
                     let n = &mut self.nodes[i as usize];
                     if near && !spared && n.class.is_drivable() {
                         n.class = TravClass::Obstacle;
+                        n.blocked = Blocked::FORBIDDEN;
                         marked += 1;
                     }
                     i = self.next_in_cell[i as usize];
@@ -681,6 +685,7 @@ impl TravMap {
             patch_z,
             ground_z: patch_z,
             class: TravClass::Unknown,
+            blocked: Blocked::NONE,
             slope_deg: 0.0,
             normal: [0.0, 0.0, 1.0],
             neighbours: [NONE; 8],
@@ -758,8 +763,17 @@ impl TravMap {
         // A drop is an edge: cells of it along the footprint's rim, not one
         // cell (a fleck of floor seen through a crack, a double floor).
         let dropped = drops >= MIN_DROP_CELLS;
-        let blocked = steep || step || raised || dropped || self.body_hits(mls, n.ix, n.iy, &pl);
+        let mut why = Blocked::NONE
+            .with(Blocked::STEEP, steep)
+            .with(Blocked::STEP, step)
+            .with(Blocked::RAISED, raised)
+            .with(Blocked::DROP, dropped);
+        if why.is_empty() {
+            why = why.with(Blocked::BODY, self.body_hits(mls, n.ix, n.iy, &pl));
+        }
+        let blocked = !why.is_empty();
         let node = &mut self.nodes[i as usize];
+        node.blocked = why;
         node.ground_z = pl.z_at(cx, cy) as f32;
         node.slope_deg = pl.slope_deg() as f32;
         node.normal = pl.normal().map(|v| v as f32);

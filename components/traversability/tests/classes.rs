@@ -2,7 +2,7 @@
 //! unknown, explorable, frontier, and two levels over each other.
 
 use speleo_mapping::mls::{MlsMap, MlsParams, PatchKind};
-use speleo_traversability::{TravClass, TravMap, TravParams, Window, NONE};
+use speleo_traversability::{Blocked, TravClass, TravMap, TravParams, Window, NONE};
 
 /// Points every 5 cm over `[x0, x1) x [y0, y1)` at height `z(x, y)`.
 fn surface(m: &mut MlsMap, x: (f64, f64), y: (f64, f64), z: impl Fn(f64, f64) -> f64) {
@@ -44,6 +44,13 @@ fn class_at(t: &TravMap, x: f64, y: f64, z: f64) -> Option<TravClass> {
         .map(|n| n.class)
 }
 
+/// Why the node there is an obstacle.
+fn blocked_at(t: &TravMap, x: f64, y: f64, z: f64) -> Option<Blocked> {
+    t.node_at(x, y, z, 0.2)
+        .and_then(|i| t.node(i))
+        .map(|n| n.blocked)
+}
+
 #[test]
 fn flat_ground_is_traversable_and_its_edge_is_frontier() {
     let mut m = mls();
@@ -82,6 +89,7 @@ fn slopes_beyond_the_limit_are_obstacles() {
                 .nodes()
                 .iter()
                 .filter(|n| n.class == TravClass::Obstacle && n.slope_deg as f64 > 25.0)
+                .inspect(|n| assert!(n.blocked.contains(Blocked::STEEP), "{:?}", n.blocked))
                 .count();
             assert!(steep > 0, "no node measured steep");
         }
@@ -100,7 +108,11 @@ fn a_step_higher_than_the_robot_climbs_stops_it() {
     assert_eq!(class_at(&t, 3.0, 2.0, 0.3), None);
     assert_eq!(class_at(&t, 1.95, 2.0, 0.0), None);
     assert_eq!(class_at(&t, 1.65, 2.0, 0.0), Some(TravClass::Obstacle));
+    // Too high over the floor for its plane's band: a ledge under the body.
+    let b = blocked_at(&t, 1.65, 2.0, 0.0);
+    assert!(b.is_some_and(|b| b.contains(Blocked::RAISED)), "{b:?}");
     assert_eq!(class_at(&t, 1.55, 2.0, 0.0), Some(TravClass::Traversable));
+    assert_eq!(blocked_at(&t, 1.55, 2.0, 0.0), Some(Blocked::NONE));
     // A 5 cm step is climbed.
     let mut m = mls();
     surface(&mut m, (0.0, 2.0), (0.0, 4.0), |_, _| 0.0);
@@ -117,6 +129,7 @@ fn a_rock_marks_obstacles_only_where_the_body_cannot_avoid_it() {
     block(&mut m, (2.9, 3.1), (2.9, 3.1), (0.05, 0.4));
     let t = build(&m, [1.0, 1.0, 0.0]);
     assert_eq!(class_at(&t, 3.0, 3.3, 0.0), Some(TravClass::Obstacle));
+    assert_eq!(blocked_at(&t, 3.0, 3.3, 0.0), Some(Blocked::BODY));
     // Beyond the inscribed radius (0.3 m) from the rock's edge.
     assert_eq!(class_at(&t, 3.0, 3.5, 0.0), Some(TravClass::Traversable));
     assert_eq!(class_at(&t, 1.0, 1.0, 0.0), Some(TravClass::Traversable));
@@ -227,6 +240,7 @@ fn ground_that_overhangs_a_drop_is_an_obstacle_a_small_step_down_is_not() {
     // Within the footprint's radius (0.4 m) of the edge, in three cells of
     // it or more: the wheels would hang over the drop.
     assert_eq!(class_at(&t, 3.75, 2.0, 1.5), Some(TravClass::Obstacle));
+    assert!(blocked_at(&t, 3.75, 2.0, 1.5).is_some_and(|b| b.contains(Blocked::DROP)));
     assert_eq!(class_at(&t, 3.65, 2.0, 1.5), Some(TravClass::Traversable));
     // Down the small step the deck carries on.
     assert_eq!(class_at(&t, 3.95, 6.0, 1.5), Some(TravClass::Traversable));
@@ -530,6 +544,7 @@ fn a_forbidden_place_becomes_obstacle_except_where_the_rover_stands() {
     let marked = t.forbid([2.0, 2.0, 0.0], 0.5, [1.6, 2.0], 0.2);
     assert_eq!(class_at(&t, 2.0, 2.0, 0.0), Some(TravClass::Obstacle));
     assert_eq!(class_at(&t, 2.4, 2.0, 0.0), Some(TravClass::Obstacle));
+    assert_eq!(blocked_at(&t, 2.4, 2.0, 0.0), Some(Blocked::FORBIDDEN));
     // Beyond the radius, and where the rover stands, still drivable.
     assert_eq!(class_at(&t, 2.6, 2.0, 0.0), Some(TravClass::Traversable));
     assert_eq!(class_at(&t, 1.65, 2.0, 0.0), Some(TravClass::Traversable));

@@ -98,7 +98,7 @@ impl Default for PlannerConfig {
             body_width_m: s.body_width_m + 2.0 * BODY_MARGIN_M,
             clearance_weight: s.clearance_weight,
             bump_weight: 10.0,
-            edge_weight: 0.0,
+            edge_weight: s.edge_weight,
             edge_reach_m: s.edge_reach_m,
             mprim: String::new(),
             step_units: PlannerStepUnits::default(),
@@ -211,7 +211,8 @@ impl PlannerConfig {
         ] {
             range(k, v, 0.0, 100.0, "0..=100")?;
         }
-        // Within the cells each node's circle is looked at for.
+        // With the term on, each node's cell scan widens by this reach:
+        // bounded, so a preparation unit's time is.
         range(
             "planner.edge_reach_m",
             self.edge_reach_m,

@@ -48,6 +48,11 @@ const START_REACH_M: f64 = 1.5;
 const NO_GO_SPARE_M: f64 = 0.3;
 /// How far from the point ahead on the route the goal node may be, m.
 const GOAL_REACH_M: f64 = 1.0;
+/// ... and how far above or below a goal point that has a height (a point
+/// of the track home), m: on the garage's way home, the track's point on
+/// level 1 took the node over it on level 2, and the rover drove back up
+/// the ramp it had just come down, again and again.
+const GOAL_LEVEL_M: f64 = 1.0;
 /// Where the map does not reach `goal_ahead_m` yet, the goal comes back
 /// along the route a metre at a time, to no nearer than this, m.
 const GOAL_NEAREST_M: f64 = 2.0;
@@ -132,6 +137,8 @@ struct Query {
     /// Points along the route, farthest first (with the route's heading
     /// there).
     goals: [([f64; 2], f64); GOAL_POINTS],
+    /// The height of each goal point where it has one (the track's).
+    goal_z: [Option<f64>; GOAL_POINTS],
     goal_count: usize,
     /// The start node and, per goal point, the node found so far, with
     /// their distances².
@@ -350,6 +357,7 @@ impl PlannerTask {
                     &mut |g| {
                         if q.goal_count < GOAL_POINTS {
                             q.goals[q.goal_count] = ([g[0], g[1]], 0.0);
+                            q.goal_z[q.goal_count] = Some(g[2]);
                             q.goal_count += 1;
                         }
                     },
@@ -436,13 +444,16 @@ impl PlannerTask {
             }
             let p = trav.position(n);
             let ds = (p[0] - q.rover[0]).powi(2) + (p[1] - q.rover[1]).powi(2);
-            if ds <= START_REACH_M * START_REACH_M && q.start.is_none_or(|(_, d)| ds < d) {
+            // Not the deck over the rover, nor the floor under its ramp.
+            let level = (p[2] - q.rover[2]).abs() <= GOAL_LEVEL_M;
+            if ds <= START_REACH_M * START_REACH_M && level && q.start.is_none_or(|(_, d)| ds < d) {
                 q.start = Some((i as u32, ds));
             }
             for k in 0..q.goal_count {
-                let g = q.goals[k].0;
-                let dg = (p[0] - g[0]).powi(2) + (p[1] - g[1]).powi(2);
-                if dg <= GOAL_REACH_M * GOAL_REACH_M && q.goal[k].is_none_or(|(_, d)| dg < d) {
+                let Some(dg) = goal_distance2(p, q.goals[k].0, q.goal_z[k]) else {
+                    continue;
+                };
+                if q.goal[k].is_none_or(|(_, d)| dg < d) {
                     q.goal[k] = Some((i as u32, dg));
                 }
             }
@@ -480,6 +491,9 @@ impl PlannerTask {
                 let window = Window::around(q.rover[0], q.rover[1], self.window_half_m, res);
                 ex.scan
                     .begin([q.rover[0], q.rover[1]], ex.target, Some(window));
+                if ex.mode() == Mode::Exploring {
+                    ex.scan.facing(q.yaw);
+                }
                 return Phase::Candidates;
             }
         }
@@ -540,12 +554,13 @@ impl PlannerTask {
         if scan.best().is_empty() && scan.next_pass() {
             return Phase::Candidates;
         }
-        if scan.pass() == Pass::Crest {
+        if matches!(scan.pass(), Pass::Crest | Pass::Uphill) {
             if let Some(c) = scan.best().first() {
                 tracing::debug!(
                     x = c.position[0],
                     y = c.position[1],
                     z = c.position[2],
+                    uphill = scan.pass() == Pass::Uphill,
                     "a crest to look over"
                 );
             }
@@ -1189,6 +1204,15 @@ fn start_candidates(
 
 /// The point `ahead` metres along the route from the rover's projection
 /// on segment `segment`, and the route's heading there.
+/// The squared distance in the plane from ground point `p` to goal point
+/// `g`, when `p` may stand for it: within [`GOAL_REACH_M`], and on the
+/// goal's level when the goal has a height (within [`GOAL_LEVEL_M`]).
+fn goal_distance2(p: [f64; 3], g: [f64; 2], z: Option<f64>) -> Option<f64> {
+    let d2 = (p[0] - g[0]).powi(2) + (p[1] - g[1]).powi(2);
+    let level = z.is_none_or(|z| (p[2] - z).abs() <= GOAL_LEVEL_M);
+    (d2 <= GOAL_REACH_M * GOAL_REACH_M && level).then_some(d2)
+}
+
 fn point_ahead(
     route: &[[f64; 2]],
     looped: bool,
@@ -1253,6 +1277,7 @@ fn trace_graph_near(trav: &speleo_traversability::TravMap, rover: [f64; 3], radi
             patch_z = n.patch_z,
             slope_deg = n.slope_deg,
             class = ?n.class,
+            blocked = ?n.blocked,
             "node"
         );
     }
@@ -2052,6 +2077,21 @@ mod tests {
         assert!(ex.no_go.is_empty());
         assert!(!ex.retrace_due());
         assert_eq!(ex.explorer.rejected(), &[[5.5, 2.0]]);
+    }
+
+    #[test]
+    fn a_goal_point_with_a_height_takes_ground_on_its_level_only() {
+        // A point of the track home on the floor, under a deck 3 m up.
+        let g = [2.0, 1.0];
+        let floor = [2.3, 1.0, 0.0];
+        let deck = [2.1, 1.0, 3.0];
+        assert_eq!(goal_distance2(deck, g, Some(0.2)), None);
+        let d = goal_distance2(floor, g, Some(0.2));
+        assert!(d.is_some_and(|d| (d - 0.09).abs() < 1e-9), "{d:?}");
+        // A route's point has no height: either level will do.
+        assert!(goal_distance2(deck, g, None).is_some());
+        // Out of reach in the plane.
+        assert_eq!(goal_distance2([3.5, 1.0, 0.0], g, Some(0.2)), None);
     }
 
     #[test]
