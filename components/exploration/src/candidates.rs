@@ -5,7 +5,7 @@
 //! keeps the best few; ties go to the lower node index, so the same graph
 //! gives the same choice.
 
-use speleo_traversability::{Node, TravClass, TravMap, Window};
+use speleo_traversability::{TravClass, TravMap, Window};
 
 use crate::coverage::CoverageMap;
 
@@ -55,14 +55,6 @@ pub struct CandidateParams {
     /// ahead that one short drive shows.
     pub crest_reach_m: f64,
     pub crest_min_distance_m: f64,
-    /// A rover standing on ground this steep, facing within `uphill_cone_deg`
-    /// of straight up it, looks first for crests up the slope ahead (within
-    /// the cone too), before any other candidate, deg. At a garage ramp's
-    /// top the crest 2 m ahead was too near and covered for the roomy pass,
-    /// which found a floor goal 14 m away; the rover drove back down and
-    /// never saw the level above.
-    pub uphill_slope_deg: f64,
-    pub uphill_cone_deg: f64,
 }
 
 impl Default for CandidateParams {
@@ -80,8 +72,6 @@ impl Default for CandidateParams {
             crest_rise_m: 0.25,
             crest_reach_m: 4.0,
             crest_min_distance_m: 0.5,
-            uphill_slope_deg: 6.0,
-            uphill_cone_deg: 35.0,
         }
     }
 }
@@ -124,10 +114,6 @@ pub struct Candidate {
 /// found nothing.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Pass {
-    /// Crests up the slope ahead of a climbing rover (see
-    /// [`CandidateParams::uphill_slope_deg`]); only when its heading is
-    /// given ([`CandidateScan::facing`]).
-    Uphill,
     /// Patches with `clearance_m` of room.
     Roomy,
     /// Patches with `tight_clearance_m` of room (a squeeze's waist).
@@ -145,13 +131,8 @@ pub struct CandidateScan {
     target: Option<[f64; 2]>,
     window: Option<Window>,
     pass: Pass,
-    /// The rover's heading, rad, when given.
-    heading: Option<f64>,
     /// The ground under the rover (the graph's first node), for crests.
     rover_ground_z: Option<f64>,
-    /// Straight up the slope under the rover (a unit vector in the plane),
-    /// when the rover climbs it: the uphill pass's direction.
-    uphill: Option<[f64; 2]>,
     best: heapless::Vec<Candidate, MAX_CANDIDATES>,
     census: ScanCensus,
 }
@@ -165,9 +146,7 @@ impl CandidateScan {
             target: None,
             window: None,
             pass: Pass::Roomy,
-            heading: None,
             rover_ground_z: None,
-            uphill: None,
             best: heapless::Vec::new(),
             census: ScanCensus::default(),
         }
@@ -184,25 +163,14 @@ impl CandidateScan {
         self.target = target;
         self.window = window;
         self.pass = Pass::Roomy;
-        self.heading = None;
-        self.uphill = None;
         self.best.clear();
         self.census = ScanCensus::default();
-    }
-
-    /// The rover faces `yaw`, rad: the scan starts with the uphill pass
-    /// (which finds nothing unless the rover climbs a slope). Call after
-    /// [`CandidateScan::begin`].
-    pub fn facing(&mut self, yaw: f64) {
-        self.heading = Some(yaw);
-        self.pass = Pass::Uphill;
     }
 
     /// Scan again in the next pass (after one that found nothing): tight
     /// places, then crests; false when this pass was the last.
     pub fn next_pass(&mut self) -> bool {
         self.pass = match self.pass {
-            Pass::Uphill => Pass::Roomy,
             Pass::Roomy => Pass::Tight,
             Pass::Tight => Pass::Crest,
             Pass::Crest => return false,
@@ -240,14 +208,6 @@ impl CandidateScan {
         let all = trav.nodes().len();
         if self.next == 0 {
             self.rover_ground_z = trav.node(0).map(|n| n.ground_z as f64);
-            if self.pass == Pass::Uphill {
-                self.uphill = trav.node(0).and_then(|n| self.climbing(n));
-                if self.uphill.is_none() {
-                    // Not climbing: nothing for this pass.
-                    self.next = all;
-                    return true;
-                }
-            }
         }
         let mut census = self.census;
         let mut spent = 0u64;
@@ -261,24 +221,6 @@ impl CandidateScan {
         }
         self.census = census;
         self.next == all
-    }
-
-    /// Straight up the slope under the rover, when the ground there is
-    /// steep enough and the rover faces up it.
-    fn climbing(&self, ground: &Node) -> Option<[f64; 2]> {
-        let yaw = self.heading?;
-        if (ground.slope_deg as f64) < self.p.uphill_slope_deg {
-            return None;
-        }
-        // The plane rises against its normal's horizontal part.
-        let (ux, uy) = (-ground.normal[0] as f64, -ground.normal[1] as f64);
-        let len = ux.hypot(uy);
-        if len < 1e-6 {
-            return None;
-        }
-        let up = [ux / len, uy / len];
-        let cone = self.p.uphill_cone_deg.to_radians().cos();
-        (up[0] * yaw.cos() + up[1] * yaw.sin() >= cone).then_some(up)
     }
 
     /// Best first.
@@ -371,20 +313,14 @@ impl CandidateScan {
             census.inner += 1;
             return None;
         }
-        if matches!(self.pass, Pass::Crest | Pass::Uphill) {
+        if self.pass == Pass::Crest {
             // Near and covered or not: only ground over the rover that it
-            // has not yet stood as high as near here (and, climbing, up
-            // the slope ahead).
+            // has not yet stood as high as near here.
             let rise = self.rover_ground_z.map_or(f64::NEG_INFINITY, |g| p[2] - g);
             let reach = self.p.crest_min_distance_m..=self.p.crest_reach_m;
-            let ahead = self.uphill.is_none_or(|u| {
-                let cone = self.p.uphill_cone_deg.to_radians().cos();
-                (p[0] - self.rover[0]) * u[0] + (p[1] - self.rover[1]) * u[1] >= cone * d
-            });
             if !border_class
                 || rise < self.p.crest_rise_m
                 || !reach.contains(&d)
-                || (self.pass == Pass::Uphill && !ahead)
                 || coverage.stood_as_high(p[0], p[1], p[2])
             {
                 census.no_crest += 1;
@@ -410,7 +346,7 @@ impl CandidateScan {
         }
         let clearance = match self.pass {
             Pass::Tight => self.p.tight_clearance_m,
-            Pass::Roomy | Pass::Crest | Pass::Uphill => self.p.clearance_m,
+            Pass::Roomy | Pass::Crest => self.p.clearance_m,
         };
         if obstacle_near(trav, n.ix, n.iy, n.ground_z, clearance, work) {
             census.cramped += 1;

@@ -491,9 +491,6 @@ impl PlannerTask {
                 let window = Window::around(q.rover[0], q.rover[1], self.window_half_m, res);
                 ex.scan
                     .begin([q.rover[0], q.rover[1]], ex.target, Some(window));
-                if ex.mode() == Mode::Exploring {
-                    ex.scan.facing(q.yaw);
-                }
                 return Phase::Candidates;
             }
         }
@@ -554,13 +551,12 @@ impl PlannerTask {
         if scan.best().is_empty() && scan.next_pass() {
             return Phase::Candidates;
         }
-        if matches!(scan.pass(), Pass::Crest | Pass::Uphill) {
+        if scan.pass() == Pass::Crest {
             if let Some(c) = scan.best().first() {
                 tracing::debug!(
                     x = c.position[0],
                     y = c.position[1],
                     z = c.position[2],
-                    uphill = scan.pass() == Pass::Uphill,
                     "a crest to look over"
                 );
             }
