@@ -48,11 +48,12 @@ const START_REACH_M: f64 = 1.5;
 const NO_GO_SPARE_M: f64 = 0.3;
 /// How far from the point ahead on the route the goal node may be, m.
 const GOAL_REACH_M: f64 = 1.0;
-/// ... and how far above or below a goal point that has a height (a point
-/// of the track home), m: on the garage's way home, the track's point on
-/// level 1 took the node over it on level 2, and the rover drove back up
-/// the ramp it had just come down, again and again.
-const GOAL_LEVEL_M: f64 = 1.0;
+/// How far above or below the rover its start node, and a goal point that
+/// has a height (a point of the track home) its goal node, may lie, m: on
+/// the garage's way home, the track's point on level 1 took the node over
+/// it on level 2, and the rover drove back up the ramp it had just come
+/// down, again and again.
+const LEVEL_M: f64 = 1.0;
 /// Where the map does not reach `goal_ahead_m` yet, the goal comes back
 /// along the route a metre at a time, to no nearer than this, m.
 const GOAL_NEAREST_M: f64 = 2.0;
@@ -445,7 +446,7 @@ impl PlannerTask {
             let p = trav.position(n);
             let ds = (p[0] - q.rover[0]).powi(2) + (p[1] - q.rover[1]).powi(2);
             // Not the deck over the rover, nor the floor under its ramp.
-            let level = (p[2] - q.rover[2]).abs() <= GOAL_LEVEL_M;
+            let level = (p[2] - q.rover[2]).abs() <= LEVEL_M;
             if ds <= START_REACH_M * START_REACH_M && level && q.start.is_none_or(|(_, d)| ds < d) {
                 q.start = Some((i as u32, ds));
             }
@@ -1198,17 +1199,17 @@ fn start_candidates(
     }
 }
 
-/// The point `ahead` metres along the route from the rover's projection
-/// on segment `segment`, and the route's heading there.
 /// The squared distance in the plane from ground point `p` to goal point
 /// `g`, when `p` may stand for it: within [`GOAL_REACH_M`], and on the
-/// goal's level when the goal has a height (within [`GOAL_LEVEL_M`]).
+/// goal's level when the goal has a height (within [`LEVEL_M`]).
 fn goal_distance2(p: [f64; 3], g: [f64; 2], z: Option<f64>) -> Option<f64> {
     let d2 = (p[0] - g[0]).powi(2) + (p[1] - g[1]).powi(2);
-    let level = z.is_none_or(|z| (p[2] - z).abs() <= GOAL_LEVEL_M);
+    let level = z.is_none_or(|z| (p[2] - z).abs() <= LEVEL_M);
     (d2 <= GOAL_REACH_M * GOAL_REACH_M && level).then_some(d2)
 }
 
+/// The point `ahead` metres along the route from the rover's projection
+/// on segment `segment`, and the route's heading there.
 fn point_ahead(
     route: &[[f64; 2]],
     looped: bool,
