@@ -16,7 +16,9 @@ impl Blocked {
     pub const STEP: Blocked = Blocked(1 << 1);
     /// Ground too high to be this patch's continuation lies under the body.
     pub const RAISED: Blocked = Blocked(1 << 2);
-    /// The footprint hangs over a drop along its rim.
+    /// The footprint hangs over a drop along its rim, or a deep drop lies
+    /// within `drop_clearance_m` (looked for only when no test before it
+    /// failed).
     pub const DROP: Blocked = Blocked(1 << 3);
     /// Something lies in the body's height band over the plane (looked
     /// for only when no other test failed).

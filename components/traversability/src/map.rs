@@ -10,7 +10,9 @@
 //! Classes:
 //! - *unknown*: fewer than `min_inliers` support points fit a plane;
 //! - *obstacle*: the plane is too steep, two neighbouring ground cells
-//!   under the footprint differ by more than a step, or something lies in
+//!   under the footprint differ by more than a step, the footprint hangs
+//!   over a drop or a deep drop lies within `drop_clearance_m`, or
+//!   something lies in
 //!   the body's height band within the inscribed circle (where the body is
 //!   in every orientation);
 //! - *frontier*: traversable, with a neighbouring cell that has no patch
@@ -769,6 +771,10 @@ impl TravMap {
             .with(Blocked::RAISED, raised)
             .with(Blocked::DROP, dropped);
         if why.is_empty() {
+            let deep = self.deep_drop_near(mls, &n, band);
+            why = why.with(Blocked::DROP, deep);
+        }
+        if why.is_empty() {
             why = why.with(Blocked::BODY, self.body_hits(mls, n.ix, n.iy, &pl));
         }
         let blocked = !why.is_empty();
@@ -782,6 +788,55 @@ impl TravMap {
         } else {
             TravClass::Traversable
         };
+    }
+
+    /// Whether the ring of cells at `drop_clearance_m` from node `n` (one
+    /// cell wide) shows a drop at least `deep_drop_m` deep in
+    /// [`MIN_DROP_CELLS`] cells or more: an open edge the rover would pass
+    /// closer than the footprint check sees, but not so close that its
+    /// wheels run on the rim. Only the ring is looked at: beyond an edge
+    /// nearer than it, the drop crosses the ring too.
+    fn deep_drop_near(&self, mls: &MlsMap, n: &Node, band: f32) -> bool {
+        let p = &self.params;
+        if p.drop_clearance_m <= p.footprint_radius_m {
+            return false;
+        }
+        let res = self.resolution;
+        let outer = p.drop_clearance_m / res;
+        let inner = (outer - 1.0).max(p.footprint_radius_m / res);
+        let (r2_out, r2_in) = (outer * outer + 1e-6, inner * inner + 1e-6);
+        let reach = outer.ceil() as i32;
+        let in_ring = |dx: i32, dy: i32| {
+            let d2 = (dx * dx + dy * dy) as f64;
+            d2 > r2_in && d2 <= r2_out
+        };
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if in_ring(dx, dy) {
+                    mls.prefetch_cell(n.ix + dx, n.iy + dy);
+                }
+            }
+        }
+        let floor = n.patch_z - p.deep_drop_m;
+        let mut drops = 0usize;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if !in_ring(dx, dy) {
+                    continue;
+                }
+                let cell = self.cell(mls, n.ix + dx, n.iy + dy);
+                let deep = cell
+                    .iter()
+                    .any(|q| q.max < floor && !q.underside_for(n.patch_z));
+                if deep && drop_at(cell, n.patch_z, band) {
+                    drops += 1;
+                    if drops >= MIN_DROP_CELLS {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
     }
 
     /// Whether anything lies in the body's height band over the plane

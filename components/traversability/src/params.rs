@@ -15,6 +15,14 @@ pub struct TravParams {
     /// Radius of the ground that carries the robot (the support plane is
     /// fitted over it).
     pub footprint_radius_m: f64,
+    /// Radius, from the node, of the ring of cells where a deep drop
+    /// blocks the node (0: no ring): the footprint's own drop check lets
+    /// the wheels run a few centimetres from an open edge, and the garage
+    /// rover that a plan sent along a ramp's side slid off it.
+    pub drop_clearance_m: f64,
+    /// A drop at least this deep is deep for `drop_clearance_m`: one the
+    /// rover cannot drive out of, not a ledge of the cave's floor.
+    pub deep_drop_m: f32,
     /// Radius the body covers in every orientation (half its width): the
     /// orientation-free obstacle check looks only there.
     pub inscribed_radius_m: f64,
@@ -50,6 +58,8 @@ impl Default for TravParams {
             max_step_m: 0.10,
             max_gap_m: 0.6,
             footprint_radius_m: 0.4,
+            drop_clearance_m: 0.7,
+            deep_drop_m: 0.5,
             inscribed_radius_m: 0.3,
             ground_clearance_m: 0.12,
             robot_height_m: 0.7,
@@ -82,6 +92,12 @@ impl TravParams {
             && self.ground_clearance_m < self.robot_height_m)
         {
             return Err("ground_clearance_m must lie between max_step_m and robot_height_m".into());
+        }
+        if !(self.drop_clearance_m >= 0.0 && self.drop_clearance_m <= 5.0) {
+            return Err("drop_clearance_m must lie in 0..=5".into());
+        }
+        if !(self.deep_drop_m > 0.0 && self.deep_drop_m.is_finite()) {
+            return Err("deep_drop_m must be a positive number".into());
         }
         if !(self.max_gap_m >= 0.0 && self.max_gap_m <= 10.0) {
             return Err("max_gap_m must lie in 0..=10".into());
