@@ -741,9 +741,15 @@ pub fn run<C: FrameClock>(
                     })
                     .sum(),
             );
+            // In 3D: a garage rover that ended over home on a deck is not
+            // home.
             if let (Some(a), Some(b)) = (s.first(), s.last()) {
-                f.home_error_m =
-                    Some(((a.1[0] - b.1[0]).powi(2) + (a.1[1] - b.1[1]).powi(2)).sqrt());
+                f.home_error_m = Some(
+                    ((a.1[0] - b.1[0]).powi(2)
+                        + (a.1[1] - b.1[1]).powi(2)
+                        + (a.1[2] - b.1[2]).powi(2))
+                    .sqrt(),
+                );
             }
         }
         f

@@ -3,7 +3,7 @@
 //! returning or done.
 
 use crate::coverage::CoverageMap;
-use crate::trail::Trail;
+use crate::trail::{Trail, LEVEL_M};
 
 /// Failed goals remembered (older ones are forgotten first).
 pub const MAX_REJECTED: usize = 64;
@@ -32,7 +32,8 @@ pub struct ExplorerParams {
     /// Home is reached within this distance, m (estimated). It ends the
     /// mission wherever the rover is, even mid-plan: at 0.4 m the lava
     /// tube's mission ended 0.57 m from the true start. The path follower
-    /// stops within 0.2 m of the plan's end, which is home.
+    /// stops within 0.2 m of the plan's end, which is home. Across only:
+    /// home is on its own level ([`LEVEL_M`](crate::trail::LEVEL_M)).
     pub home_tolerance_m: f64,
     /// Track points kept for the way home, and their spacing, m.
     pub trail_points: usize,
@@ -157,8 +158,10 @@ impl Explorer {
             self.mode = Mode::Returning(ReturnReason::TimeLimit);
         }
         if let Mode::Returning(r) = self.mode {
+            // On home's level only: a garage rover on its way home crossed
+            // over home on the second deck and the mission ended there.
             let d = (p[0] - self.home[0]).hypot(p[1] - self.home[1]);
-            if d <= self.p.home_tolerance_m {
+            if d <= self.p.home_tolerance_m && (p[2] - self.home[2]).abs() <= LEVEL_M {
                 self.mode = Mode::Finished(r);
             }
         }
@@ -309,6 +312,21 @@ mod tests {
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
         // Home is home.
         assert!(!e.resume([0.2, 0.0]));
+        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+    }
+
+    #[test]
+    fn passing_over_home_on_a_deck_above_it_is_not_home() {
+        let mut e = Explorer::new(ExplorerParams::default(), [0.0, 0.0, 0.2]);
+        for _ in 0..3 {
+            e.query_result(false);
+        }
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        // The garage's second deck, 6 m over home.
+        e.observe(10.0, [0.1, 0.0, 6.2]);
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        // Down the ramps, on home's own floor.
+        e.observe(20.0, [0.1, 0.0, 0.25]);
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
     }
 

@@ -82,7 +82,7 @@ impl Default for PlannerConfig {
             enabled: true,
             window_m: 30.0,
             window_max_m: 60.0,
-            max_nodes: 1 << 16,
+            max_nodes: 1 << 18,
             goal_ahead_m: 8.0,
             replan_every_s: 10.0,
             max_expansions: 500_000,
