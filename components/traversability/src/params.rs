@@ -16,9 +16,12 @@ pub struct TravParams {
     /// fitted over it).
     pub footprint_radius_m: f64,
     /// Radius, from the node, of the ring of cells where a deep drop
-    /// blocks the node (0: no ring): the footprint's own drop check lets
-    /// the wheels run a few centimetres from an open edge, and the garage
-    /// rover that a plan sent along a ramp's side slid off it.
+    /// blocks the node (no ring when within the footprint; 0, off, by
+    /// default). The footprint's own drop check lets the wheels run a few
+    /// centimetres from an open edge: the garage rover that a plan sent
+    /// along a ramp's side slid off it. At 0.7 m (drops of 0.5 m or 1 m)
+    /// that rover came home instead, but the lava tube's mission took
+    /// another course and was stranded behind its start (coverage 0.31).
     pub drop_clearance_m: f64,
     /// A drop at least this deep is deep for `drop_clearance_m`: one the
     /// rover cannot drive out of, not a ledge of the cave's floor.
@@ -58,7 +61,7 @@ impl Default for TravParams {
             max_step_m: 0.10,
             max_gap_m: 0.6,
             footprint_radius_m: 0.4,
-            drop_clearance_m: 0.7,
+            drop_clearance_m: 0.0,
             deep_drop_m: 0.5,
             inscribed_radius_m: 0.3,
             ground_clearance_m: 0.12,

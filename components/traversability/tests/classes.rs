@@ -38,10 +38,10 @@ fn build(m: &MlsMap, start: [f64; 3]) -> TravMap {
     t
 }
 
-/// As [`build`], with no deep-drop ring: the footprint's own drop check.
-fn build_without_drop_ring(m: &MlsMap, start: [f64; 3]) -> TravMap {
+/// As [`build`], with the deep-drop ring on (off by default).
+fn build_with_drop_ring(m: &MlsMap, start: [f64; 3]) -> TravMap {
     let p = TravParams {
-        drop_clearance_m: 0.0,
+        drop_clearance_m: 0.7,
         ..TravParams::default()
     };
     let mut t = TravMap::new(p).unwrap_or_else(|e| panic!("{e}"));
@@ -247,17 +247,17 @@ fn ground_that_overhangs_a_drop_is_an_obstacle_a_small_step_down_is_not() {
     surface(&mut m, (0.0, 4.0), (4.0, 8.0), |_, _| 1.5);
     surface(&mut m, (4.0, 8.0), (4.0, 8.0), |_, _| 1.45);
     // Within the footprint's radius (0.4 m) of the edge, in three cells of
-    // it or more: the wheels would hang over the drop (seen without the
-    // deep drop's ring, which keeps growth farther off).
-    let t = build_without_drop_ring(&m, [2.0, 2.0, 1.5]);
+    // it or more: the wheels would hang over the drop.
+    let t = build(&m, [2.0, 2.0, 1.5]);
     assert_eq!(class_at(&t, 3.75, 2.0, 1.5), Some(TravClass::Obstacle));
     assert!(blocked_at(&t, 3.75, 2.0, 1.5).is_some_and(|b| b.contains(Blocked::DROP)));
     assert_eq!(class_at(&t, 3.65, 2.0, 1.5), Some(TravClass::Traversable));
-    let t = build(&m, [2.0, 2.0, 1.5]);
+    let t = build_with_drop_ring(&m, [2.0, 2.0, 1.5]);
     assert_eq!(class_at(&t, 2.0, 2.0, 1.5), Some(TravClass::Traversable));
-    // A deep drop (0.5 m or more) keeps the rover farther off: three cells
-    // of the ring 0.6-0.7 m out show it up to 0.55 m from the edge (the
-    // nodes beyond are not grown: obstacles are leaves).
+    // With the deep-drop ring on, a deep drop (0.5 m or more) keeps the
+    // rover farther off: three cells of the ring 0.6-0.7 m out show it up
+    // to 0.55 m from the edge (the nodes beyond are not grown: obstacles
+    // are leaves).
     assert_eq!(class_at(&t, 3.45, 2.0, 1.5), Some(TravClass::Obstacle));
     assert!(blocked_at(&t, 3.45, 2.0, 1.5).is_some_and(|b| b.contains(Blocked::DROP)));
     assert_eq!(class_at(&t, 3.35, 2.0, 1.5), Some(TravClass::Traversable));
@@ -283,11 +283,11 @@ fn ground_that_overhangs_a_drop_is_an_obstacle_a_small_step_down_is_not() {
     surface(&mut m, (0.0, 2.0), (0.0, 4.0), |_, _| 1.5);
     surface(&mut m, (2.1, 4.0), (0.0, 4.0), |_, _| 1.5);
     surface(&mut m, (0.0, 4.0), (0.0, 4.0), |_, _| 0.0);
-    let t = build_without_drop_ring(&m, [1.0, 2.0, 1.5]);
+    let t = build(&m, [1.0, 2.0, 1.5]);
     assert_eq!(class_at(&t, 1.75, 2.1, 1.5), Some(TravClass::Obstacle));
     assert_eq!(class_at(&t, 1.65, 2.1, 1.5), Some(TravClass::Traversable));
     // 1.5 m deep, it is a deep drop that crosses the ring 0.6 m out.
-    let t = build(&m, [1.0, 2.0, 1.5]);
+    let t = build_with_drop_ring(&m, [1.0, 2.0, 1.5]);
     assert_eq!(class_at(&t, 1.45, 2.1, 1.5), Some(TravClass::Obstacle));
     assert_eq!(class_at(&t, 1.35, 2.1, 1.5), Some(TravClass::Traversable));
 }
@@ -300,8 +300,8 @@ fn a_shallow_ledge_is_kept_off_by_the_footprint_only_a_deep_drop_farther() {
     surface(&mut m, (0.0, 4.0), (0.0, 4.0), |_, _| 0.3);
     surface(&mut m, (0.0, 4.0), (4.0, 8.0), |_, _| 1.5);
     surface(&mut m, (4.0, 8.0), (0.0, 8.0), |_, _| 0.0);
-    let low = build(&m, [2.0, 2.0, 0.3]);
-    let high = build(&m, [2.0, 6.0, 1.5]);
+    let low = build_with_drop_ring(&m, [2.0, 2.0, 0.3]);
+    let high = build_with_drop_ring(&m, [2.0, 6.0, 1.5]);
     // 0.45 m from the edge: clear of the footprint's rim (0.4 m); 0.55 m
     // from a deep drop is not.
     assert_eq!(class_at(&low, 3.55, 2.0, 0.3), Some(TravClass::Traversable));
@@ -311,7 +311,7 @@ fn a_shallow_ledge_is_kept_off_by_the_footprint_only_a_deep_drop_farther() {
         Some(TravClass::Traversable)
     );
     // No ring, no margin.
-    let t = build_without_drop_ring(&m, [2.0, 6.0, 1.5]);
+    let t = build(&m, [2.0, 6.0, 1.5]);
     assert_eq!(class_at(&t, 3.55, 6.0, 1.5), Some(TravClass::Traversable));
 }
 

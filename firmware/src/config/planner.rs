@@ -67,6 +67,11 @@ pub struct PlannerConfig {
     /// in seed 1 (the planner README).
     pub edge_weight: f64,
     pub edge_reach_m: f64,
+    /// A drop at least `deep_drop_m` deep seen within this distance of a
+    /// node blocks it (the traversability README); 0: the footprint's own
+    /// drop check only.
+    pub drop_clearance_m: f64,
+    pub deep_drop_m: f64,
     /// An SBPL `.mprim` file at the map's resolution; empty: the
     /// generated set for the rover (`speleo primitives`).
     pub mprim: String,
@@ -100,6 +105,8 @@ impl Default for PlannerConfig {
             bump_weight: 10.0,
             edge_weight: s.edge_weight,
             edge_reach_m: s.edge_reach_m,
+            drop_clearance_m: t.drop_clearance_m,
+            deep_drop_m: decimal(t.deep_drop_m),
             mprim: String::new(),
             step_units: PlannerStepUnits::default(),
         }
@@ -211,6 +218,20 @@ impl PlannerConfig {
         ] {
             range(k, v, 0.0, 100.0, "0..=100")?;
         }
+        range(
+            "planner.drop_clearance_m",
+            self.drop_clearance_m,
+            0.0,
+            5.0,
+            "0..=5",
+        )?;
+        range(
+            "planner.deep_drop_m",
+            self.deep_drop_m,
+            0.01,
+            100.0,
+            "0.01..=100",
+        )?;
         // With the term on, each node's cell scan widens by this reach:
         // bounded, so a preparation unit's time is.
         range(
@@ -229,6 +250,8 @@ impl PlannerConfig {
             max_step_m: self.max_step_m as f32,
             ground_clearance_m: self.ground_clearance_m as f32,
             max_nodes: self.max_nodes,
+            drop_clearance_m: self.drop_clearance_m,
+            deep_drop_m: self.deep_drop_m as f32,
             ..speleo_traversability::TravParams::default()
         }
     }
