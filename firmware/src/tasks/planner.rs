@@ -1115,7 +1115,11 @@ impl PlannerTask {
                 self.phase = self.pick(next, units as usize);
             }
             Phase::Candidates => {
+                let (rover, failed) = (self.query.rover, self.counters.no_goal);
                 self.phase = self.candidates(units as usize);
+                if self.counters.no_goal != failed {
+                    trace_cells_near(bus.surface.serving(), rover, GRAPH_TRACE_RADIUS_M);
+                }
             }
             Phase::Prepare => {
                 if self.lat.prepare(bus.surface.serving(), units as usize) {
@@ -1277,6 +1281,47 @@ fn trace_graph_near(trav: &speleo_traversability::TravMap, rover: [f64; 3], radi
             blocked = ?n.blocked,
             "node"
         );
+    }
+}
+
+/// Every MLS patch within `radius_m` of `rover` as a trace line (target
+/// `speleo::cells`), beside the graph's nodes where no candidate was
+/// found: what the map holds where the graph ends (on the garage's roof
+/// ramp, a slab's top and underside both seen from below, or only its
+/// underside). Nothing is done unless that target traces.
+fn trace_cells_near(mls: &MlsMap, rover: [f64; 3], radius_m: f64) {
+    if !tracing::enabled!(target: "speleo::cells", tracing::Level::TRACE) {
+        return;
+    }
+    let (lo_x, lo_y) = mls.cell_of(rover[0] - radius_m, rover[1] - radius_m);
+    let (hi_x, hi_y) = mls.cell_of(rover[0] + radius_m, rover[1] + radius_m);
+    for iy in lo_y..=hi_y {
+        for ix in lo_x..=hi_x {
+            let [x, y] = mls.cell_center(ix, iy);
+            if (x - rover[0]).hypot(y - rover[1]) > radius_m {
+                continue;
+            }
+            for p in mls.cell(ix, iy) {
+                tracing::trace!(
+                    target: "speleo::cells",
+                    x,
+                    y,
+                    mean = p.mean,
+                    min = p.min,
+                    max = p.max,
+                    top = p.top,
+                    under = (p.under > f32::MIN).then_some(p.under),
+                    count = p.count,
+                    top_count = p.top_count,
+                    kind = ?p.kind,
+                    seen_from_above = p.seen_from_above,
+                    top_seen_from_above = p.top_seen_from_above,
+                    under_seen_from_above = p.under_seen_from_above,
+                    ground = p.ground(),
+                    "patch"
+                );
+            }
+        }
     }
 }
 
