@@ -1293,36 +1293,36 @@ fn trace_cells_near(mls: &MlsMap, rover: [f64; 3], radius_m: f64) {
     if !tracing::enabled!(target: "speleo::cells", tracing::Level::TRACE) {
         return;
     }
-    let (lo_x, lo_y) = mls.cell_of(rover[0] - radius_m, rover[1] - radius_m);
-    let (hi_x, hi_y) = mls.cell_of(rover[0] + radius_m, rover[1] + radius_m);
-    for iy in lo_y..=hi_y {
-        for ix in lo_x..=hi_x {
-            let [x, y] = mls.cell_center(ix, iy);
-            if (x - rover[0]).hypot(y - rover[1]) > radius_m {
-                continue;
-            }
-            for p in mls.cell(ix, iy) {
-                tracing::trace!(
-                    target: "speleo::cells",
-                    x,
-                    y,
-                    mean = p.mean,
-                    min = p.min,
-                    max = p.max,
-                    top = p.top,
-                    under = (p.under > f32::MIN).then_some(p.under),
-                    count = p.count,
-                    top_count = p.top_count,
-                    kind = ?p.kind,
-                    seen_from_above = p.seen_from_above,
-                    top_seen_from_above = p.top_seen_from_above,
-                    under_seen_from_above = p.under_seen_from_above,
-                    ground = p.ground(),
-                    "patch"
-                );
-            }
+    let (lo, hi) = (
+        [rover[0] - radius_m, rover[1] - radius_m],
+        [rover[0] + radius_m, rover[1] + radius_m],
+    );
+    mls.for_each_in_region(lo, hi, |ix, iy, patches| {
+        let [x, y] = mls.cell_center(ix, iy);
+        if (x - rover[0]).hypot(y - rover[1]) > radius_m {
+            return;
         }
-    }
+        for p in patches {
+            tracing::trace!(
+                target: "speleo::cells",
+                x,
+                y,
+                mean = p.mean,
+                min = p.min,
+                max = p.max,
+                top = p.top,
+                under = (p.under > f32::MIN).then_some(p.under),
+                count = p.count,
+                top_count = p.top_count,
+                kind = ?p.kind,
+                seen_from_above = p.seen_from_above,
+                top_seen_from_above = p.top_seen_from_above,
+                under_seen_from_above = p.under_seen_from_above,
+                ground = p.ground(),
+                "patch"
+            );
+        }
+    });
 }
 
 #[cfg(test)]
