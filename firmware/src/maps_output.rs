@@ -28,6 +28,9 @@ pub struct MapsFigures {
     /// full), and the points they left out.
     pub regions_kept: u64,
     pub points_outside_region: u64,
+    /// Cells marked where a keyframe's rings should have met the rover's
+    /// ground and met nothing (`maps.unseen_ground_reach_m`).
+    pub unseen_ground_marks: u64,
     /// Keyframe points that did not fit the keyframe clouds.
     pub keyframe_points_dropped: u64,
     /// The TSDF of every keyframe and its mesh (made when a report or a
@@ -202,6 +205,7 @@ pub fn finish(
         reprojections: maps.counters.reprojections,
         regions_kept: maps.counters.regions_kept,
         points_outside_region: maps.counters.points_outside_region,
+        unseen_ground_marks: maps.counters.unseen_ground_marks,
         keyframe_points_dropped: maps.keyframes.dropped,
         memory_bytes: maps.memory_bytes,
         ..MapsFigures::default()

@@ -161,14 +161,41 @@ pub fn cloud_message_capacity(max_points: u32) -> usize {
     max_points as usize * 20 + 1024
 }
 
-fn build_lidar_driver(cfg: &Config) -> Result<lidar_driver::LidarDriver, MissionError> {
-    use speleo_hal::hdl32e::{Calibration, Decoder, FrameAssembler, Interpolation};
+fn lidar_calibration(cfg: &Config) -> Result<speleo_hal::hdl32e::Calibration, MissionError> {
+    use speleo_hal::hdl32e::Calibration;
     let l = &cfg.lidar;
-    let cal = if l.calibration.is_empty() {
+    Ok(if l.calibration.is_empty() {
         Calibration::nominal()
     } else {
         Calibration::load(std::path::Path::new(&l.calibration))?
-    };
+    })
+}
+
+/// Where the LiDAR's downward rings meet the ground the rover stands on,
+/// within `maps.unseen_ground_reach_m` (none at 0).
+fn expected_ground(
+    cfg: &Config,
+) -> Result<Option<speleo_mapping::mls::ExpectedGround>, MissionError> {
+    let reach = cfg.maps.unseen_ground_reach_m;
+    if reach <= 0.0 {
+        return Ok(None);
+    }
+    let cal = lidar_calibration(cfg)?;
+    let elevations = cal.lasers.map(|l| l.vert_deg);
+    // One ray a degree: 2.8 cm apart at 1.6 m, under the 10 cm cells.
+    Ok(Some(speleo_mapping::mls::ExpectedGround::new(
+        &mount_pose(cfg).to_isometry(),
+        &elevations,
+        -base_height_m(cfg),
+        reach,
+        360,
+    )))
+}
+
+fn build_lidar_driver(cfg: &Config) -> Result<lidar_driver::LidarDriver, MissionError> {
+    use speleo_hal::hdl32e::{Decoder, FrameAssembler, Interpolation};
+    let l = &cfg.lidar;
+    let cal = lidar_calibration(cfg)?;
     let mode = match l.interpolation.as_str() {
         "veloview" => Interpolation::VeloView,
         "velodyne-decoder" => Interpolation::FixedPairs,
@@ -388,7 +415,11 @@ pub fn run<C: FrameClock>(
             crate::keyframe_clouds::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
         t_slam = t_slam.with_maps(cfg.maps.range_m, cfg.maps.keyframe_points);
         bus.surface = crate::surface_maps::SurfaceMaps::new(cfg.maps.mls_params())?;
-        maps::MapsTask::new(&cfg.maps, kf_capacity)?.with_sensor_at(cfg.lidar.mount_xyz)
+        let t = maps::MapsTask::new(&cfg.maps, kf_capacity)?.with_sensor_at(cfg.lidar.mount_xyz);
+        match expected_ground(cfg)? {
+            Some(g) => t.with_expected_ground(g),
+            None => t,
+        }
     } else {
         // Idle: nothing ever reaches the keyframe clouds.
         maps::MapsTask::new(

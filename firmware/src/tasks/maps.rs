@@ -12,6 +12,7 @@
 //! region around the rover. A rebuild is cut into the same steps as any
 //! insertion, so keeping the region costs no longer step than mapping.
 
+use speleo_mapping::mls::ExpectedGround;
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_slam::lie::{log_so3, Pose};
 
@@ -37,7 +38,14 @@ pub struct MapsCounters {
     pub points_inserted: u64,
     /// Points of a rebuild left out for lying beyond the kept region.
     pub points_outside_region: u64,
+    /// Cells marked where a keyframe's rings should have met ground and
+    /// met nothing (see `ExpectedGround`).
+    pub unseen_ground_marks: u64,
 }
+
+/// Azimuths of the unseen-ground marks one step makes: a keyframe's 360
+/// took ~2 ms, over the task's budget, in one step.
+const MARK_AZIMUTHS_PER_STEP: usize = 40;
 
 /// Where the insertion is: keyframe `k`, from its point `point`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -74,6 +82,11 @@ pub struct MapsTask {
     /// The LiDAR's position in the base frame: what a point was seen
     /// from (over it or under it) matters to the MLS.
     sensor_in_base: nalgebra::Vector3<f64>,
+    /// Where each keyframe's downward rings meet the rover's ground, to
+    /// mark what they should have seen and did not.
+    expected_ground: Option<ExpectedGround>,
+    /// The ground's lift over the plane of the keyframe being marked.
+    mark_lift: f64,
     /// Scratch: one step's points in the map frame.
     scratch: Vec<[f64; 3]>,
     points_per_step: usize,
@@ -104,6 +117,8 @@ impl MapsTask {
             reproject_m,
             reproject_rad: reproject_deg.to_radians(),
             sensor_in_base: nalgebra::Vector3::zeros(),
+            expected_ground: None,
+            mark_lift: 0.0,
             scratch: Vec::with_capacity(points_per_step),
             points_per_step,
             counters: MapsCounters::default(),
@@ -113,6 +128,13 @@ impl MapsTask {
     /// The LiDAR sits at `xyz` in the base frame (`lidar.mount_xyz`).
     pub fn with_sensor_at(mut self, xyz: [f64; 3]) -> Self {
         self.sensor_in_base = nalgebra::Vector3::from(xyz);
+        self
+    }
+
+    /// Mark, after each keyframe, the cells where its rings should have
+    /// met the ground the rover stood on and met nothing.
+    pub fn with_expected_ground(mut self, g: ExpectedGround) -> Self {
+        self.expected_ground = Some(g);
         self
     }
 
@@ -132,9 +154,13 @@ impl MapsTask {
     fn insert_part(&mut self, bus: &mut Bus, m: usize, c: Cursor) -> Option<Cursor> {
         let store = &bus.keyframe_clouds;
         let pose = *store.pose(c.k)?;
+        let n = store.cloud(c.k).len();
+        if c.point >= n && self.expected_ground.is_some() {
+            return self.mark_part(bus, m, c, n);
+        }
+        let store = &bus.keyframe_clouds;
         self.scratch.clear();
         let cloud = store.cloud(c.k);
-        let n = cloud.len();
         let region = if m == bus.surface.active() {
             None
         } else {
@@ -160,9 +186,47 @@ impl MapsTask {
             .insert_points_seen_from(&self.scratch, sensor_z);
         self.counters.points_inserted += stats.inserted;
         let next = c.point + taken;
-        (next < n).then_some(Cursor {
+        // With marks to make, the keyframe goes on past its points.
+        (next < n || self.expected_ground.is_some()).then_some(Cursor {
             k: c.k,
             point: next,
+        })
+    }
+
+    /// The marks of keyframe `c.k` (its points all in map `m`) where its
+    /// rings should have met the ground and met nothing, in steps: past
+    /// the cloud's `n` points, `c.point` counts them (the ground's lift
+    /// over the plane first, then [`MARK_AZIMUTHS_PER_STEP`] azimuths a
+    /// step).
+    fn mark_part(&mut self, bus: &mut Bus, m: usize, c: Cursor, n: usize) -> Option<Cursor> {
+        let pose = bus.keyframe_clouds.pose(c.k)?.to_isometry();
+        let g = self.expected_ground.as_ref()?;
+        let map = bus.surface.map_mut(m);
+        let at = c.point - n;
+        if at == 0 {
+            self.mark_lift = g.lift(map, &pose);
+            return Some(Cursor {
+                k: c.k,
+                point: c.point + 1,
+            });
+        }
+        let region = if m == bus.surface.active() {
+            None
+        } else {
+            self.region
+        };
+        let r2 = self.keep_radius_m * self.keep_radius_m;
+        let keep = |x: f64, y: f64| {
+            region.is_none_or(|[cx, cy]| (x - cx).powi(2) + (y - cy).powi(2) <= r2)
+        };
+        let from = (at - 1) * MARK_AZIMUTHS_PER_STEP;
+        let to = (from + MARK_AZIMUTHS_PER_STEP).min(g.azimuths());
+        let map = bus.surface.map_mut(m);
+        let marks = g.mark_azimuths(map, &pose, self.mark_lift, from..to, keep);
+        self.counters.unseen_ground_marks += marks as u64;
+        (to < g.azimuths()).then_some(Cursor {
+            k: c.k,
+            point: c.point + 1,
         })
     }
 
@@ -367,6 +431,58 @@ mod tests {
         run_to_idle(&mut t, &mut bus);
         assert_eq!(t.counters.keyframes_inserted, 3);
         assert!((height(&bus, 4.5).unwrap_or(f32::NAN) + 0.2).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_rim_of_a_roof_a_keyframe_should_have_seen_past_is_marked_in_both_maps() {
+        // Ground 0.2 m under the base from 2 m behind the rover to 1.2 m
+        // ahead of it, nothing past that (a roof's rim with nothing seen
+        // under it); rings meet that plane from 0.9 m out.
+        let mut bus = Bus::new();
+        bus.keyframe_clouds = KeyframeClouds::new(2, 40_000);
+        let cfg = MapsConfig {
+            mls_max_cells: 8192,
+            ..MapsConfig::default()
+        };
+        let mount = nalgebra::Isometry3::translation(0.0, 0.0, 0.35);
+        let elevations = speleo_hal::hdl32e::calib::NOMINAL_ELEVATION_DEG;
+        let g = ExpectedGround::new(&mount, &elevations, -0.2, 1.6, 360);
+        let mut t = MapsTask::new(&cfg, 2)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .with_sensor_at([0.0, 0.0, 0.35])
+            .with_expected_ground(g);
+        bus.surface = SurfaceMaps::new(cfg.mls_params()).unwrap_or_else(|e| panic!("{e}"));
+        assert!(bus.keyframe_clouds.begin());
+        for i in 0..160 {
+            for j in 0..120 {
+                let (x, y) = (-2.0 + i as f64 * 0.02 + 0.01, -1.2 + j as f64 * 0.02 + 0.01);
+                bus.keyframe_clouds.push([x, y, -0.2]);
+            }
+        }
+        bus.keyframe_clouds.commit();
+        bus.keyframe_clouds.set_poses([at(0.0, 0.0)]);
+        // 19,200 points 4,000 a step, the ground's lift, then 360
+        // azimuths of marks 40 a step.
+        assert_eq!(run_to_idle(&mut t, &mut bus), 5 + 1 + 9);
+        assert!(t.counters.unseen_ground_marks > 0);
+        let unseen = |bus: &Bus, x: f64, y: f64| {
+            let m = bus.surface.serving();
+            let (ix, iy) = m.cell_of(x, y);
+            m.unseen_ground(ix, iy)
+        };
+        assert!(unseen(&bus, 1.35, 0.05).is_some_and(|u| (u + 0.2).abs() < 1e-3));
+        assert_eq!(unseen(&bus, 1.0, 0.05), None, "on the roof");
+        assert_eq!(
+            unseen(&bus, 1.35, 1.5),
+            None,
+            "beyond the roof's side, no ray"
+        );
+        // A loop closure re-projects the keyframe into the other map.
+        bus.keyframe_clouds.set_poses([at(0.0, 0.3)]);
+        let before = bus.surface.active();
+        run_to_idle(&mut t, &mut bus);
+        assert_ne!(bus.surface.active(), before);
+        assert!(unseen(&bus, 1.35, 0.05).is_some_and(|u| (u - 0.1).abs() < 1e-3));
     }
 
     #[test]

@@ -147,6 +147,10 @@ pub struct MlsStats {
     pub out_of_range: u64,
     /// Every cell is in use: points in new cells are being dropped.
     pub full: bool,
+    /// Marks of ground expected but not seen ([`MlsMap::mark_unseen_ground`])
+    /// taken, and refused for want of a cell.
+    pub unseen_marks: u64,
+    pub unseen_refused: u64,
     /// Bytes of the fixed buffers (taken at construction, never grown).
     pub memory_bytes: usize,
 }
@@ -166,6 +170,11 @@ pub struct MlsMap {
     keys: Vec<(i32, i32)>,
     lens: Vec<u8>,
     patches: Vec<Patch>,
+    /// Per cell, the lowest height where a ray expected ground and found
+    /// none (NaN: never); read only while the cell holds no patch.
+    unseen: Vec<f32>,
+    unseen_marks: u64,
+    unseen_refused: u64,
     cells: usize,
     patch_total: usize,
     /// Smallest and largest cell coordinates in use (x0, y0, x1, y1):
@@ -201,6 +210,9 @@ impl MlsMap {
             keys: resident_buffer(max_cells, (0, 0)),
             lens: resident_buffer(max_cells, 0),
             patches: resident_buffer(max_cells * stride, Patch::default()),
+            unseen: resident_buffer(max_cells, f32::NAN),
+            unseen_marks: 0,
+            unseen_refused: 0,
             cells: 0,
             patch_total: 0,
             bounds: None,
@@ -387,6 +399,7 @@ impl MlsMap {
                 let c = self.cells;
                 self.keys[c] = (ix, iy);
                 self.lens[c] = 0;
+                self.unseen[c] = f32::NAN;
                 self.index.fill(at, ix, iy, c as u32);
                 self.cells += 1;
                 self.grow_bounds(ix, iy);
@@ -416,6 +429,42 @@ impl MlsMap {
     /// origin; NaN gives cell 0).
     pub fn cell_of(&self, x: f64, y: f64) -> (i32, i32) {
         (floor_i32(x * self.inv_res), floor_i32(y * self.inv_res))
+    }
+
+    /// Records that a ray which would have met ground at `(x, y, z)` met
+    /// none there: the cell holds nothing at `z` or over it. Kept (the
+    /// lowest such height) only while the cell has no patch, and made a
+    /// cell of its own if it has none yet; a patch later makes it moot. An
+    /// open edge nothing under it is seen from (a roof's, a cliff's over a
+    /// void) shows in the map only so. Returns whether the mark was kept.
+    /// Allocates nothing.
+    pub fn mark_unseen_ground(&mut self, x: f64, y: f64, z: f64) -> bool {
+        let (fx, fy) = (x * self.inv_res, y * self.inv_res);
+        if !(fx.abs() < MAX_CELL_COORD && fy.abs() < MAX_CELL_COORD && z.abs() <= MAX_HEIGHT_M) {
+            return false;
+        }
+        let (ix, iy) = (floor_small(fx), floor_small(fy));
+        let Some(c) = self.cell_or_new(self.index.home(ix, iy), ix, iy) else {
+            self.unseen_refused += 1;
+            return false;
+        };
+        let c = c as usize;
+        if self.lens[c] != 0 {
+            return false;
+        }
+        let z = z as f32;
+        let u = &mut self.unseen[c];
+        *u = if u.is_nan() { z } else { u.min(z) };
+        self.unseen_marks += 1;
+        true
+    }
+
+    /// The height at and over which cell `(ix, iy)` was seen to hold no
+    /// ground ([`MlsMap::mark_unseen_ground`]), while it holds no patch.
+    pub fn unseen_ground(&self, ix: i32, iy: i32) -> Option<f32> {
+        let c = self.index.get(ix, iy)? as usize;
+        let u = self.unseen[c];
+        (self.lens[c] == 0 && !u.is_nan()).then_some(u)
     }
 
     /// Centre of cell `(ix, iy)` in the map frame.
@@ -531,6 +580,7 @@ impl MlsMap {
                 if w != c {
                     self.keys[w] = self.keys[c];
                     self.lens[w] = self.lens[c];
+                    self.unseen[w] = self.unseen[c];
                     let s = self.stride;
                     self.patches.copy_within(c * s..(c + 1) * s, w * s);
                 }
@@ -559,6 +609,8 @@ impl MlsMap {
         self.patch_total = 0;
         self.bounds = None;
         self.totals = InsertStats::default();
+        self.unseen_marks = 0;
+        self.unseen_refused = 0;
     }
 
     pub fn stats(&self) -> MlsStats {
@@ -574,9 +626,12 @@ impl MlsMap {
             non_finite: t.non_finite,
             out_of_range: t.out_of_range,
             full: self.cells >= self.max_cells,
+            unseen_marks: self.unseen_marks,
+            unseen_refused: self.unseen_refused,
             memory_bytes: self.index.memory_bytes()
                 + self.keys.len() * std::mem::size_of::<(i32, i32)>()
                 + self.lens.len()
+                + self.unseen.len() * std::mem::size_of::<f32>()
                 + self.patches.len() * std::mem::size_of::<Patch>(),
         }
     }

@@ -12,8 +12,10 @@
 mod index;
 mod map;
 mod patch;
+mod unseen;
 
 pub use map::{
     CellSlot, InsertStats, MlsMap, MlsParams, MlsStats, MAX_CELLS, MAX_PATCHES_PER_CELL,
 };
 pub use patch::{drop_at, ground_near, Patch, PatchKind, SLAB_GAP_M, TOP_BAND_M};
+pub use unseen::ExpectedGround;
