@@ -68,7 +68,7 @@ const MIN_DROP_CELLS: usize = 3;
 /// A footprint cell a ray crossed at height `u` without meeting ground
 /// (an open edge nothing under it is seen from: a roof's rim) is a drop
 /// where ground is expected at `u` less this or over it, m: the noise
-/// of the plane's and the mark's heights. Ground a few centimetres under
+/// of the node's and the mark's heights. Ground a few centimetres under
 /// `u` is no edge: past a crest, rays land that much farther and leave
 /// cells empty.
 const UNSEEN_TOLERANCE_M: f32 = 0.015;
@@ -726,6 +726,7 @@ impl TravMap {
         self.fetch_footprint(mls, n.ix, n.iy, reach, r2);
         let p = &self.params;
         let mut raised = false;
+        let mut drops = 0usize;
         for dy in -reach..=reach {
             for dx in -reach..=reach {
                 if ((dx * dx + dy * dy) as f64) > r2 {
@@ -746,6 +747,26 @@ impl TravMap {
                             && q.mean > n.patch_z + band
                             && q.mean <= n.patch_z + p.robot_height_m
                     });
+                    // The footprint hangs over a drop (a ramp's open
+                    // side, a ledge's rim): the garage's rover, whose
+                    // path hugged a ramp's edge, fell off it. A cell with
+                    // nothing in it that a ray crossed at the node's
+                    // height or under it without meeting ground is one
+                    // too: a roof's rim with nothing seen under it.
+                    //
+                    // Half-way up the garage's roof ramp, cells down the
+                    // slope whose top the rings missed hold the slab's
+                    // underside a slab and the slope's fall under the
+                    // node, beyond the band, over the floor under the
+                    // ramp: a drop that ends the graph. Judging cells
+                    // seen only from below at the plane's height took the
+                    // rover to the roof, but stranded the lava tube's on
+                    // the slope behind its start: not done.
+                    let unseen = cell.is_empty()
+                        && mls
+                            .unseen_ground(n.ix + dx, n.iy + dy)
+                            .is_some_and(|u| n.patch_z >= u - UNSEEN_TOLERANCE_M);
+                    drops += (unseen || drop_at(cell, n.patch_z, band)) as usize;
                 }
             }
         }
@@ -762,8 +783,6 @@ impl TravMap {
             self.nodes[i as usize].class = TravClass::Unknown;
             return;
         };
-        let drops = self.footprint_drops(mls, &n, &pl, reach, r2, band);
-        let p = &self.params;
         let step = has_step(&self.heights, side, p.max_step_m);
         let steep = pl.slope_deg() > p.max_slope_deg;
         // A drop is an edge: cells of it along the footprint's rim, not one
@@ -792,58 +811,6 @@ impl TravMap {
         } else {
             TravClass::Traversable
         };
-    }
-
-    /// How many footprint cells of node `n` without ground hang over a drop
-    /// (a ramp's open side, a ledge's rim: the garage's rover, whose path
-    /// hugged a ramp's edge, fell off it), judged at the node's height,
-    /// but for two kinds of cell judged at the plane's height over them:
-    /// - A cell holding something seen only from below, under the node: a
-    ///   slab's underside whose top the rings missed. Down a slope it lies
-    ///   a slab and the slope's fall under the node, beyond the band at
-    ///   the node's height, and half-way up the garage's roof ramp such
-    ///   cells made a drop of the floor under the ramp that ended the
-    ///   graph. (Judged so everywhere, the lava tube's rover drove onto
-    ///   the steep slope behind its start and could not come back.)
-    /// - A cell with nothing in it that a ray crossed at some height
-    ///   without meeting ground ([`MlsMap::unseen_ground`]): a drop when
-    ///   the plane puts ground there at that height or over it, the rim
-    ///   of a roof with nothing seen under it.
-    fn footprint_drops(
-        &self,
-        mls: &MlsMap,
-        n: &Node,
-        pl: &plane::Plane,
-        reach: i32,
-        r2: f64,
-        band: f32,
-    ) -> usize {
-        let res = self.resolution;
-        let (cx, cy) = ((n.ix as f64 + 0.5) * res, (n.iy as f64 + 0.5) * res);
-        let side = (2 * reach + 1) as usize;
-        let mut drops = 0usize;
-        for dy in -reach..=reach {
-            for dx in -reach..=reach {
-                let grounded =
-                    !self.heights[(dy + reach) as usize * side + (dx + reach) as usize].is_nan();
-                if ((dx * dx + dy * dy) as f64) > r2 || grounded {
-                    continue;
-                }
-                let (ix, iy) = (n.ix + dx, n.iy + dy);
-                let at_plane = || pl.z_at(cx + dx as f64 * res, cy + dy as f64 * res) as f32;
-                let cell = self.near_cell(mls, ix, iy);
-                let dropped = if cell.is_empty() {
-                    mls.unseen_ground(ix, iy)
-                        .is_some_and(|u| at_plane() >= u - UNSEEN_TOLERANCE_M)
-                } else if cell.iter().any(|q| !q.seen_from_above && q.max < n.patch_z) {
-                    drop_at(cell, at_plane(), band)
-                } else {
-                    drop_at(cell, n.patch_z, band)
-                };
-                drops += dropped as usize;
-            }
-        }
-        drops
     }
 
     /// Whether the ring of cells at `drop_clearance_m` from node `n` (one

@@ -39,8 +39,8 @@ pub struct MapsConfig {
     /// rover stood on within this distance of the sensor and met nothing,
     /// the MLS cell is marked (an open edge with nothing seen under it: a
     /// roof's rim); 0, the default, marks nothing. At 1.6 m the lava
-    /// tube's rover was stranded 38 m in (coverage 0.28), where the
-    /// marks past a crest turned its plans.
+    /// tube's rover was stranded 38 m in (coverage 0.28), where it
+    /// passed without the marks.
     pub unseen_ground_reach_m: f64,
     /// TSDF voxel size and truncation (in voxels) of the mesh.
     pub tsdf_voxel_m: f64,
