@@ -38,9 +38,9 @@ pub struct MapsConfig {
     /// Where a keyframe's downward rings should have met the ground the
     /// rover stood on within this distance of the sensor and met nothing,
     /// the MLS cell is marked (an open edge with nothing seen under it: a
-    /// roof's rim); 0, the default, marks nothing. At 1.6 m the lava
-    /// tube's rover was stranded 38 m in (coverage 0.28), where it
-    /// passed without the marks.
+    /// roof's rim); 0, the default, marks nothing. Off until measured
+    /// on every world: at 1.6 m, beside a drop rule since dropped, the
+    /// lava tube's rover was stranded 38 m in (coverage 0.28).
     pub unseen_ground_reach_m: f64,
     /// TSDF voxel size and truncation (in voxels) of the mesh.
     pub tsdf_voxel_m: f64,
