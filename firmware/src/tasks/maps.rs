@@ -158,24 +158,16 @@ impl MapsTask {
         if c.point >= n && self.expected_ground.is_some() {
             return self.mark_part(bus, m, c, n);
         }
-        let store = &bus.keyframe_clouds;
         self.scratch.clear();
-        let cloud = store.cloud(c.k);
-        let region = if m == bus.surface.active() {
-            None
-        } else {
-            self.region
-        };
-        let r2 = self.keep_radius_m * self.keep_radius_m;
+        let cloud = bus.keyframe_clouds.cloud(c.k);
+        let keeps = self.keeps(bus, m);
         let mut taken = 0;
         for p in cloud.skip(c.point).take(self.points_per_step) {
             taken += 1;
             let v = pose.transform(&nalgebra::Vector3::from(p));
-            if let Some([cx, cy]) = region {
-                if (v.x - cx).powi(2) + (v.y - cy).powi(2) > r2 {
-                    self.counters.points_outside_region += 1;
-                    continue;
-                }
+            if !keeps(v.x, v.y) {
+                self.counters.points_outside_region += 1;
+                continue;
             }
             self.scratch.push([v.x, v.y, v.z]);
         }
@@ -210,15 +202,7 @@ impl MapsTask {
                 point: c.point + 1,
             });
         }
-        let region = if m == bus.surface.active() {
-            None
-        } else {
-            self.region
-        };
-        let r2 = self.keep_radius_m * self.keep_radius_m;
-        let keep = |x: f64, y: f64| {
-            region.is_none_or(|[cx, cy]| (x - cx).powi(2) + (y - cy).powi(2) <= r2)
-        };
+        let keep = self.keeps(bus, m);
         let from = (at - 1) * MARK_AZIMUTHS_PER_STEP;
         let to = (from + MARK_AZIMUTHS_PER_STEP).min(g.azimuths());
         let map = bus.surface.map_mut(m);
@@ -228,6 +212,20 @@ impl MapsTask {
             k: c.k,
             point: c.point + 1,
         })
+    }
+
+    /// Whether a point at `x, y` goes into map `m`: the active map takes
+    /// everything, a map being rebuilt only what lies in the kept region.
+    fn keeps(&self, bus: &Bus, m: usize) -> impl Fn(f64, f64) -> bool {
+        let region = if m == bus.surface.active() {
+            None
+        } else {
+            self.region
+        };
+        let r2 = self.keep_radius_m * self.keep_radius_m;
+        move |x: f64, y: f64| {
+            region.is_none_or(|[cx, cy]| (x - cx).powi(2) + (y - cy).powi(2) <= r2)
+        }
     }
 
     /// One bounded unit of work; false when there is none.

@@ -957,7 +957,13 @@ impl PlannerTask {
             ex.sim_lend();
             return;
         };
-        let end = sim.prediction().last().copied().unwrap_or([f64::NAN; 3]);
+        // Where the simulated rover ended (a tip-over before the first
+        // sample leaves the prediction empty).
+        let end = sim
+            .rover_state()
+            .map(|b| b.position)
+            .or_else(|| sim.prediction().last().copied())
+            .unwrap_or([f64::NAN; 3]);
         ex.record_verdict(v.outcome, now);
         if let Some(d) = &mut dump {
             d.finish(ex.counters.validations, v);

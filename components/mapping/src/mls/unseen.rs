@@ -102,12 +102,6 @@ impl ExpectedGround {
         }
     }
 
-    /// Rays looked at per scan (the cost of [`ExpectedGround::mark`] in
-    /// cell lookups, at most).
-    pub fn rays(&self) -> usize {
-        self.hits.iter().filter(|p| !p[0].is_nan()).count()
-    }
-
     /// How far the seen ground lies over the plane round the rover: the
     /// mean over the azimuths whose nearest ring met ground near the
     /// plane. Marks are made at the ground's height, not the plane's: the
