@@ -374,9 +374,18 @@ impl Exploration {
         } else {
             track.latest_near(pose, 2.0)
         };
-        let Some(from) = from else {
+        let Some(mut from) = from else {
             return false;
         };
+        // Not past a point the rover has come back from: after a slide
+        // back down a slope (or a back-out) the latest point near it lies
+        // ahead of it, and the retrace drove up to it and turned round
+        // there (the lava tube's muddy entrance: up 0.8 m, then a 170°
+        // turn at 20° of pitch, or a spin on the spot to back up to it).
+        let away = |p: &[f64; 3]| (p[0] - pose[0]).hypot(p[1] - pose[1]);
+        while from > 0 && away(&trail[from - 1]) < away(&trail[from]) {
+            from -= 1;
+        }
         let validate = self.validates();
         let mut msg = PlanMsg {
             query,
@@ -903,6 +912,25 @@ mod tests {
         e.retrace(&mut bus, 2, 2, 5.0);
         let home = end(&bus).unwrap_or_else(|| panic!("no retrace"));
         assert!(home[0] < 6.0, "{home:?}");
+    }
+
+    #[test]
+    fn a_retrace_does_not_drive_back_up_to_a_point_the_rover_slid_back_from() {
+        let mut e = exploration();
+        let mut bus = Bus::new();
+        // Up a slope along x to 6 m, then slid back to 5.2 m: the track's
+        // last point near the rover is 0.8 m ahead of it.
+        for k in 0..=6 {
+            e.explorer.observe(k as f64, [k as f64, 0.0, 0.0]);
+        }
+        at(&mut bus, [5.2, 0.0, 0.0]);
+        e.retrace(&mut bus, 1, 1, 4.0);
+        let poses = bus.plan.get().map(|p| p.value.poses.clone());
+        let poses = poses.unwrap_or_else(|| panic!("no retrace"));
+        assert!(poses.len() >= 3, "{poses:?}");
+        // From where it stands straight back down, never up to x = 6.
+        assert!(poses.iter().all(|q| q[0] <= 5.2 + 1e-3), "{poses:?}");
+        assert!(poses[1][0] > 4.5 && poses[1][0] < 5.2, "{poses:?}");
     }
 
     #[test]
