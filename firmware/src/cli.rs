@@ -98,6 +98,10 @@ pub struct ValidateArgs {
     /// x, y, z, roll, pitch, yaw, tilt, and the follower's v and w).
     #[arg(long, value_name = "OUT.csv")]
     pub track: Option<PathBuf>,
+    /// Write the plan's poses as CSV (x, y, z, yaw; map frame), as the
+    /// case holds them.
+    #[arg(long, value_name = "OUT.csv")]
+    pub plan: Option<PathBuf>,
     /// Also drive the plan on this world's true surface (lava-tube,
     /// short-tube, garage, boulders, flat, or a mesh file), from where the
     /// rover truly stood: the true track (truth.csv) a simulated mission

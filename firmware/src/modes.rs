@@ -862,6 +862,11 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
             .map(std::io::BufWriter::new)
             .map_err(|e| format!("cannot create {}: {e}", p.display()))
     };
+    if let Some(p) = &a.plan {
+        let mut w = create(p)?;
+        tv::write_plan(&case.plan, &mut w)?;
+        std::io::Write::flush(&mut w)?;
+    }
     let mut track = a.track.as_deref().map(create).transpose()?;
     let mut mesh = a.mesh.as_deref().map(create).transpose()?;
     let r = tv::replay(

@@ -306,6 +306,7 @@ fn a_dumped_validation_replays_to_the_verdict_the_mission_got() {
     let case = dir.join("validation-0001.case");
     assert!(case.exists(), "{}", text(&out.stderr));
     let (mesh, track) = (d.path().join("w.ply"), d.path().join("t.csv"));
+    let plan = d.path().join("p.csv");
     let r = speleo(&[
         "validate",
         case.to_str().expect("utf-8"),
@@ -313,6 +314,8 @@ fn a_dumped_validation_replays_to_the_verdict_the_mission_got() {
         mesh.to_str().expect("utf-8"),
         "--track",
         track.to_str().expect("utf-8"),
+        "--plan",
+        plan.to_str().expect("utf-8"),
     ]);
     let o = text(&r.stdout);
     assert!(r.status.success(), "{o}{}", text(&r.stderr));
@@ -323,6 +326,13 @@ fn a_dumped_validation_replays_to_the_verdict_the_mission_got() {
     let rows = std::fs::read_to_string(&track).expect("track");
     assert!(rows.starts_with("t_s,x_m,y_m,z_m"), "{rows:.80}");
     assert!(rows.lines().count() > 100, "a row a physics step");
+    // The plan as the case holds it: a header, then a pose a row, the
+    // count the summary line gives.
+    let poses = std::fs::read_to_string(&plan).expect("plan");
+    assert!(poses.starts_with("x_m,y_m,z_m,yaw_deg\n"), "{poses:.80}");
+    let n = poses.lines().count() - 1;
+    assert!(n >= 2, "{poses}");
+    assert!(o.contains(&format!("plan {n} poses")), "{o}");
     // The same plan on the world's true surface, placed by the true track
     // the simulation wrote beside the cases.
     assert!(dir.join("truth.csv").exists());

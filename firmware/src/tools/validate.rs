@@ -1,7 +1,7 @@
 //! `speleo validate CASE`: replay one validation a mission dumped
 //! (`--dump-validations`) with the configuration's simulator: its verdict
 //! beside the mission's, where it tilted most, and on request the world
-//! it built (PLY) and its track step by step (CSV). With `--world`, the
+//! it built (PLY), its track step by step and the plan's poses (CSV). With `--world`, the
 //! same plan is also driven on the world's true surface from where the
 //! rover truly stood (the true track the simulation wrote beside the
 //! cases): a verdict that differs there points at the map, not the
@@ -43,6 +43,15 @@ pub fn read_case(path: &Path) -> Result<ValidationCase, Error> {
         std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
     ValidationCase::read(&mut std::io::BufReader::new(f))
         .map_err(|e| format!("{}: {e}", path.display()).into())
+}
+
+/// Write `plan`'s poses as CSV: x, y, z (m) and yaw (deg), one a row.
+pub fn write_plan(plan: &[[f64; 4]], w: &mut dyn Write) -> Result<(), Error> {
+    writeln!(w, "x_m,y_m,z_m,yaw_deg")?;
+    for [x, y, z, yaw] in plan {
+        writeln!(w, "{x:.4},{y:.4},{z:.4},{:.2}", yaw.to_degrees())?;
+    }
+    Ok(())
 }
 
 /// Roll, pitch, yaw and tilt from upright of `s`, deg.
