@@ -359,6 +359,7 @@ pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParam
         newest_keyframes: s.newest_keyframes,
         base_height_m: base_height_m(cfg),
         start_tilted: s.start_tilted,
+        start_tilted_over_deg: s.start_tilted_over_deg,
         way_back_drop_m: s.way_back_drop_m,
         ..speleo_simulator::SimulatorParams::default()
     }

@@ -47,6 +47,12 @@ pub struct SimulatorParams {
     /// but in the missions measured with it the rover met failures the
     /// level start had kept it from (see the simulator's README).
     pub start_tilted: bool,
+    /// With `start_tilted` off, a rover tilted more than this still starts
+    /// as it stands, deg (90: never). Put down level on the lava tube's
+    /// muddy entrance, pitched 20°, the simulated rover drove off the
+    /// edge of the level pad laid under it and tipped, on every way down
+    /// there was: the true rover, which had slid there, was stranded.
+    pub start_tilted_over_deg: f64,
     /// A plan that took the rover down more than this is driven back too
     /// when asked ([`crate::InternalSim::check_way_back`]), m; 0: never.
     pub way_back_drop_m: f64,
@@ -89,6 +95,7 @@ impl Default for SimulatorParams {
             stuck_progress_m: 0.1,
             base_height_m: 0.9 * physics.wheel_radius_m,
             start_tilted: false,
+            start_tilted_over_deg: 15.0,
             way_back_drop_m: 0.0,
             physics,
         }
@@ -116,6 +123,12 @@ impl SimulatorParams {
             return Err(format!(
                 "simulator way_back_drop_m must be 0 or more, is {}",
                 self.way_back_drop_m
+            ));
+        }
+        if !(0.0..=90.0).contains(&self.start_tilted_over_deg) {
+            return Err(format!(
+                "simulator start_tilted_over_deg must be within 0..=90, is {}",
+                self.start_tilted_over_deg
             ));
         }
         if self.max_blocks == 0 {

@@ -223,7 +223,8 @@ impl InternalSim {
                 break;
             }
         }
-        self.start = if self.p.start_tilted {
+        let tilt_deg = start.up()[2].clamp(-1.0, 1.0).acos().to_degrees();
+        self.start = if self.p.start_tilted || tilt_deg > self.p.start_tilted_over_deg {
             start
         } else {
             let [x, y, z, yaw] = start.xyz_yaw();

@@ -52,10 +52,11 @@ impl CloudSource for SideSlope {
 }
 
 /// The simulated rover's tilt, deg, a second into the drive, with
-/// `start_tilted` on or off.
-fn tilt_after_a_second(start: Stance, start_tilted: bool) -> f64 {
+/// `start_tilted` on or off, and starting tilted anyway over `over_deg`.
+fn tilt_after_a_second(start: Stance, start_tilted: bool, over_deg: f64) -> f64 {
     let p = SimulatorParams {
         start_tilted,
+        start_tilted_over_deg: over_deg,
         ..SimulatorParams::default()
     };
     let mut sim = InternalSim::new(p.clone()).expect("sim");
@@ -85,7 +86,8 @@ fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
         roll: SLOPE,
         ..Stance::level(0.0, 0.0, z, 0.0)
     };
-    let tilt = tilt_after_a_second(tilted, true);
+    let never = 90.0;
+    let tilt = tilt_after_a_second(tilted, true, never);
     assert!(
         (tilt - SLOPE.to_degrees()).abs() < 4.0,
         "{tilt:.1} deg on a {:.1} deg slope",
@@ -93,10 +95,28 @@ fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
     );
     // Put down level (the stance level, or the tilted start off): it
     // stands on a shelf cut into the slope, far less tilted than it is.
-    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0), true);
+    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0), true, never);
     assert_eq!(
-        tilt_after_a_second(tilted, false).to_bits(),
+        tilt_after_a_second(tilted, false, never).to_bits(),
         level.to_bits()
     );
     assert!(level < tilt - 8.0, "level {level:.1}, tilted {tilt:.1}");
+}
+
+#[test]
+fn with_the_tilted_start_off_a_rover_tilted_past_the_threshold_still_starts_tilted() {
+    let p = SimulatorParams::default();
+    let z = p.base_height_m / SLOPE.cos();
+    let tilted = Stance {
+        roll: SLOPE,
+        ..Stance::level(0.0, 0.0, z, 0.0)
+    };
+    let as_it_stands = tilt_after_a_second(tilted, true, 90.0);
+    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0), false, 90.0);
+    // About 20 degrees of roll: over a 15-degree threshold, as it stands...
+    let over = tilt_after_a_second(tilted, false, 15.0);
+    assert_eq!(over.to_bits(), as_it_stands.to_bits(), "{over:.1}");
+    // ...under a 25-degree one, level.
+    let under = tilt_after_a_second(tilted, false, 25.0);
+    assert_eq!(under.to_bits(), level.to_bits(), "{under:.1}");
 }

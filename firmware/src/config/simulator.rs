@@ -46,6 +46,9 @@ pub struct SimulatorConfig {
     /// stands, not level (see `speleo_simulator::SimulatorParams`). Off by
     /// default for now.
     pub start_tilted: bool,
+    /// With `start_tilted` off, a rover tilted more than this still starts
+    /// as it stands, deg (90: never).
+    pub start_tilted_over_deg: f64,
     /// An exploring plan that takes the rover down more than this is
     /// driven back up too, backward to its start, and refused when that
     /// fails (`no_way_back`), m; 0: never.
@@ -68,6 +71,7 @@ impl Default for SimulatorConfig {
             worker_units: 120,
             dump_dir: None,
             start_tilted: p.start_tilted,
+            start_tilted_over_deg: p.start_tilted_over_deg,
             way_back_drop_m: p.way_back_drop_m,
         }
     }
@@ -107,6 +111,13 @@ impl SimulatorConfig {
             1,
             100_000,
             "1..=100000",
+        )?;
+        range(
+            &k("start_tilted_over_deg"),
+            self.start_tilted_over_deg,
+            0.0,
+            90.0,
+            "0..=90",
         )?;
         range(
             &k("way_back_drop_m"),
