@@ -62,6 +62,9 @@ pub struct ExplorationFigures {
     pub back_outs_refused: u64,
     /// Times nothing was left but barred places, which were forgotten once.
     pub second_looks: u64,
+    /// Places the rover slid back or stalled climbing, pitched 17 degrees
+    /// or more: the ground up from each is barred for exploring.
+    pub slides: u64,
     /// Candidate scans, and those that found nothing.
     pub scans: u64,
     pub scans_empty: u64,
@@ -100,6 +103,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         backed_out: e.counters.backed_out,
         back_outs_refused: e.counters.back_outs_refused,
         second_looks: e.counters.second_looks,
+        slides: e.counters.slides,
         climbed_m: e.climbed_m,
         descended_m: e.descended_m,
         scans: e.counters.scans,

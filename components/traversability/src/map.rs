@@ -291,6 +291,31 @@ impl TravMap {
     /// What the map cannot see is known this way: a rock the rover sat on,
     /// wheels spinning, is not driven over again. Returns the nodes marked.
     pub fn forbid(&mut self, at: [f64; 3], radius_m: f64, keep: [f64; 2], spare_m: f64) -> usize {
+        self.forbid_where(at, radius_m, |p| {
+            (p[2] - at[2]).abs() < 0.5 && (p[0] - keep[0]).hypot(p[1] - keep[1]) > spare_m
+        })
+    }
+
+    /// Mark every drivable node within `radius_m` of `at` (in x and y)
+    /// whose ground stands more than `rise_m` over `at`'s height an
+    /// obstacle: the slope up from a place where the rover slid back or
+    /// stalled climbing. The map cannot see what the ground is made of: up
+    /// the lava tube's muddy entrance the rover slid off its path stop
+    /// after stop where the simulation, on rock, climbed. Ground at the
+    /// place and below it stays drivable (the way down). Returns the nodes
+    /// marked.
+    pub fn forbid_above(&mut self, at: [f64; 3], radius_m: f64, rise_m: f64) -> usize {
+        self.forbid_where(at, radius_m, |p| p[2] > at[2] + rise_m)
+    }
+
+    /// Mark the drivable nodes within `radius_m` of `at` (in x and y) for
+    /// which `barred` holds obstacles; how many.
+    fn forbid_where(
+        &mut self,
+        at: [f64; 3],
+        radius_m: f64,
+        barred: impl Fn([f64; 3]) -> bool,
+    ) -> usize {
         let res = self.resolution;
         let r = (radius_m / res).ceil() as i32;
         let (cx, cy) = ((at[0] / res).floor() as i32, (at[1] / res).floor() as i32);
@@ -300,11 +325,9 @@ impl TravMap {
                 let mut i = self.by_cell.get(ix, iy);
                 while i != NONE {
                     let p = self.position(&self.nodes[i as usize]);
-                    let near = (p[0] - at[0]).hypot(p[1] - at[1]) <= radius_m
-                        && (p[2] - at[2]).abs() < 0.5;
-                    let spared = (p[0] - keep[0]).hypot(p[1] - keep[1]) <= spare_m;
+                    let near = (p[0] - at[0]).hypot(p[1] - at[1]) <= radius_m;
                     let n = &mut self.nodes[i as usize];
-                    if near && !spared && n.class.is_drivable() {
+                    if near && n.class.is_drivable() && barred(p) {
                         n.class = TravClass::Obstacle;
                         n.blocked = Blocked::FORBIDDEN;
                         marked += 1;

@@ -629,3 +629,33 @@ fn a_forbidden_place_becomes_obstacle_except_where_the_rover_stands() {
     // Another level is not touched.
     assert_eq!(t.forbid([2.0, 2.0, 1.0], 0.5, [0.0, 0.0], 0.0), 0);
 }
+
+#[test]
+fn the_slope_up_from_a_slide_becomes_obstacle_and_the_way_down_stays() {
+    // A 15-degree slope rising along x; the rover slid back at x = 2.
+    let k = 0.27;
+    let mut m = mls();
+    surface(&mut m, (0.0, 5.0), (0.0, 4.0), |x, _| k * x);
+    let mut t = build(&m, [0.5, 2.0, k * 0.5]);
+    let z = |x: f64| k * x;
+    let marked = t.forbid_above([2.0, 2.0, z(2.0)], 1.5, 0.2);
+    // More than 0.2 m up the slope, within 1.5 m: barred.
+    for x in [2.85, 3.25] {
+        assert_eq!(
+            class_at(&t, x, 2.0, z(x)),
+            Some(TravClass::Obstacle),
+            "x {x}"
+        );
+        assert_eq!(blocked_at(&t, x, 2.0, z(x)), Some(Blocked::FORBIDDEN));
+    }
+    // The place itself, a little up, and all the way down: drivable.
+    for x in [0.55, 1.25, 2.05, 2.55] {
+        assert!(
+            class_at(&t, x, 2.0, z(x)).is_some_and(TravClass::is_drivable),
+            "x {x}"
+        );
+    }
+    // Up the slope beyond the radius: drivable still.
+    assert!(class_at(&t, 3.65, 2.0, z(3.65)).is_some_and(TravClass::is_drivable));
+    assert!(marked > 50, "{marked}");
+}

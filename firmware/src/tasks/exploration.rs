@@ -13,6 +13,7 @@ use speleo_simulator::{
 
 use crate::tasks::sim_worker::SimWorker;
 use crate::validation_dump::ValidationDump;
+use speleo_hal::sim::quat;
 use speleo_slam::lie::Pose;
 
 use crate::bus::{Bus, ExplorationPhase, ExplorationStatus, PlanMsg, PLAN_POSES};
@@ -46,6 +47,9 @@ pub struct ExplorationCounters {
     /// Times nothing was left but barred places, which were forgotten
     /// to explore on (once a mission).
     pub second_looks: u64,
+    /// Places the rover slid back or stalled climbing a slope, from which
+    /// the ground up is barred for exploring (see [`SLIDE_PITCH_DEG`]).
+    pub slides: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground,
     /// no way back).
@@ -75,6 +79,24 @@ pub const MAX_NO_GO: usize = 32;
 /// chassis' half-diagonal, so that what held it (under the body, or under
 /// a wheel) is not driven over again.
 pub const NO_GO_RADIUS_M: f64 = 0.6;
+
+/// Places the rover slid back or stalled on a slope, kept for the rest
+/// of the mission (older ones are forgotten first).
+pub const MAX_SLIDES: usize = 16;
+
+/// A stop off the path, without progress or stuck that leaves the rover
+/// pitched this much or more is a slide, deg: the slope is more than its
+/// wheels hold. The map cannot tell mud from rock: up the lava tube's
+/// muddy entrance (18 deg; mud's friction 0.35) the simulation, on
+/// rock, passed climb after climb that the rover slid back from at 19-23
+/// deg of pitch. The garage's ramps (14 deg) stay below it.
+pub const SLIDE_PITCH_DEG: f64 = 17.0;
+
+/// Exploring, no path goes to ground more than `SLIDE_RISE_M` over a
+/// slide's place within `SLIDE_RADIUS_M` of it (the slope up from it,
+/// across the tube); the way down stays open, m.
+pub const SLIDE_RADIUS_M: f64 = 3.0;
+pub const SLIDE_RISE_M: f64 = 0.3;
 
 /// After a stuck stop the rover backs this far, m.
 const BACK_OUT_M: f64 = 1.0;
@@ -201,6 +223,10 @@ pub struct Exploration {
     pub descended_m: f64,
     /// Where the rover was stuck: obstacles in every graph from then on.
     pub no_go: heapless::Deque<[f64; 3], MAX_NO_GO>,
+    /// Where the rover slid on a slope (ground under it): the ground up
+    /// from there is barred in exploring graphs (never forgotten: the
+    /// slope is what it is).
+    pub slides: heapless::Deque<[f64; 3], MAX_SLIDES>,
     /// The next retrace backs out of a place the rover was stuck at.
     back_out: bool,
     /// The plan under way is a back-out.
@@ -279,6 +305,7 @@ impl Exploration {
             climbed_m: 0.0,
             descended_m: 0.0,
             no_go: heapless::Deque::new(),
+            slides: heapless::Deque::new(),
             back_out: false,
             backing_out: false,
             ended: 0,
@@ -318,6 +345,53 @@ impl Exploration {
             );
             self.explorer.strand();
         }
+    }
+
+    /// An exploring plan ended with `stop` off the path, without progress
+    /// or stuck, the rover pitched [`SLIDE_PITCH_DEG`] or more: the place
+    /// is kept as a slide (see [`Exploration::slides`]).
+    fn note_slide(&mut self, stop: u8, bus: &Bus) {
+        let slid = [
+            StopReason::OffPath,
+            StopReason::NoProgress,
+            StopReason::Stuck,
+        ]
+        .iter()
+        .any(|r| *r as u8 == stop);
+        if !slid || self.explorer.mode() != Mode::Exploring {
+            return;
+        }
+        let Some(s) = bus.slam.get().map(|p| p.value) else {
+            return;
+        };
+        let (_, pitch, _) = quat::to_ypr(&quat::normalise(&s.orientation));
+        if pitch.abs().to_degrees() < SLIDE_PITCH_DEG {
+            return;
+        }
+        let at = [
+            s.position[0],
+            s.position[1],
+            s.position[2] - self.base_height_m,
+        ];
+        let known = self
+            .slides
+            .iter()
+            .any(|q| (q[0] - at[0]).hypot(q[1] - at[1]) < 0.5 && (q[2] - at[2]).abs() < 0.3);
+        if known {
+            return;
+        }
+        if self.slides.is_full() {
+            self.slides.pop_front();
+        }
+        let _ = self.slides.push_back(at);
+        self.counters.slides += 1;
+        tracing::debug!(
+            x = at[0],
+            y = at[1],
+            z = at[2],
+            pitch_deg = pitch.to_degrees(),
+            "slid on a slope: the ground up from here is barred for exploring"
+        );
     }
 
     /// A query on the way home found no plan.
@@ -851,6 +925,7 @@ impl Exploration {
             } else if stop == 0 {
                 self.escape_attempts = 0;
             }
+            self.note_slide(stop, bus);
             self.count_tilt_stall(stop, bus);
         }
         let since = *self.idle_since.get_or_insert(now);
@@ -958,5 +1033,49 @@ mod tests {
         }
         assert_eq!(e.explorer.mode(), Mode::Stranded);
         assert!(!e.retrace_due());
+    }
+
+    #[test]
+    fn a_stop_pitched_up_a_steep_slope_is_kept_as_a_slide_once() {
+        let mut e = exploration();
+        e.set_base_height(0.15);
+        let mut bus = Bus::new();
+        let pitched = |bus: &mut Bus, p: [f64; 3], deg: f64| {
+            let h = deg.to_radians() / 2.0;
+            bus.slam.publish(
+                0,
+                SlamPose {
+                    position: p,
+                    orientation: [h.cos(), 0.0, h.sin(), 0.0],
+                    keyframes: 1,
+                },
+            );
+        };
+        let off_path = StopReason::OffPath as u8;
+        // Off the path on a garage ramp (14 deg), or tilted past the
+        // limit: no slide.
+        pitched(&mut bus, [1.0, 0.0, 0.5], -14.0);
+        e.note_slide(off_path, &bus);
+        pitched(&mut bus, [1.0, 0.0, 0.5], -21.0);
+        e.note_slide(StopReason::Tilt as u8, &bus);
+        assert!(e.slides.is_empty());
+        // Slid off the path nose up at 21 deg: kept, on the ground.
+        pitched(&mut bus, [-6.0, -1.0, 1.65], -21.0);
+        e.note_slide(off_path, &bus);
+        assert_eq!(e.slides.len(), 1);
+        let s = *e.slides.front().expect("a slide");
+        assert!((s[2] - 1.5).abs() < 1e-9, "{s:?}");
+        // Stalled again beside it: the same place.
+        pitched(&mut bus, [-6.2, -0.9, 1.7], 20.0);
+        e.note_slide(StopReason::NoProgress as u8, &bus);
+        assert_eq!((e.slides.len(), e.counters.slides), (1, 1));
+        // Going home, a slide bars nothing (home may be up a slope).
+        for _ in 0..3 {
+            e.explorer.query_result(false);
+        }
+        assert!(matches!(e.mode(), Mode::Returning(_)));
+        pitched(&mut bus, [30.0, 0.0, -3.0], -22.0);
+        e.note_slide(StopReason::Stuck as u8, &bus);
+        assert_eq!(e.slides.len(), 1);
     }
 }

@@ -32,7 +32,7 @@ use speleo_simulator::{Outcome, Stance};
 use crate::bus::{Bus, PlanMsg};
 use crate::config::PlannerConfig;
 use crate::tasks::control::yaw_of;
-use crate::tasks::exploration::{Exploration, NO_GO_RADIUS_M};
+use crate::tasks::exploration::{Exploration, NO_GO_RADIUS_M, SLIDE_RADIUS_M, SLIDE_RISE_M};
 
 /// Results kept for the report's medians (a query every few seconds: days
 /// of mission).
@@ -1095,6 +1095,15 @@ impl PlannerTask {
                             self.lat
                                 .trav_mut()
                                 .forbid(*p, NO_GO_RADIUS_M, keep, NO_GO_SPARE_M);
+                        }
+                        // Exploring, not up a slope the rover slid on (the
+                        // way home may have to go up one).
+                        if ex.explorer.mode() == Mode::Exploring {
+                            for p in ex.slides.iter() {
+                                self.lat
+                                    .trav_mut()
+                                    .forbid_above(*p, SLIDE_RADIUS_M, SLIDE_RISE_M);
+                            }
                         }
                     }
                     let trav = self.lat.trav();
