@@ -291,8 +291,16 @@ fn a_crest_just_over_the_rover_is_a_candidate_only_when_nothing_else_is() {
         assert!(s.best().is_empty(), "{:?}", s.best());
         s.next_pass();
     }
-    // Once the rover stood at the top, it is no crest any more.
+    // Once the rover stood at the top, it is no crest any more, and the
+    // census says why each patch was not.
     cov.mark(4.2, 0.0, 1.25 + 0.19, 3.0);
     let (_, best) = passes(&mut s, &cov);
     assert!(best.is_empty(), "{best:?}");
+    let c = *s.census();
+    assert!(c.crest_stood > 0, "{c:?}");
+    assert_eq!(
+        c.no_crest,
+        c.crest_not_border + c.crest_low + c.crest_out_of_reach + c.crest_stood,
+        "{c:?}"
+    );
 }
