@@ -221,6 +221,32 @@ fn a_cell_with_the_most_patches_drops_new_levels() {
 }
 
 #[test]
+fn a_cell_under_a_garages_roof_ramp_keeps_every_level_by_default() {
+    // The floor, the first ramp, the first level's slab, the second's,
+    // the roof ramp and the roof's underside: six surfaces over one cell
+    // (the garage's under its roof ramp, with a slab's edge), each seen
+    // from the side that sees it.
+    let mut m = map(MlsParams::default());
+    let levels = [
+        (0.0, true),
+        (1.2, true),
+        (3.0, true),
+        (6.0, true),
+        (7.1, true),
+        (8.75, false),
+    ];
+    for (z, above) in levels {
+        let sensor = if above { z + 0.6 } else { z - 2.0 };
+        m.insert_points_seen_from(&[[0.05, 0.05, z], [0.05, 0.05, z + 0.005]], sensor);
+    }
+    assert_eq!(m.stats().dropped_points, 0);
+    let cell = m.cell(0, 0);
+    assert_eq!(cell.len(), levels.len(), "{cell:?}");
+    // The roof ramp's top is ground to stand on.
+    assert!(mls::ground_near(cell, 7.1, 0.1).is_some_and(|g| (g - 7.1).abs() < 0.01));
+}
+
+#[test]
 fn bad_points_are_counted_not_inserted() {
     let mut m = map(MlsParams::default());
     let pts = [

@@ -78,7 +78,7 @@ impl Default for MlsParams {
         MlsParams {
             resolution_m: 0.1,
             max_cells: 1 << 18,
-            max_patches_per_cell: 4,
+            max_patches_per_cell: 8,
             gap_m: 0.3,
             vertical_threshold_m: 0.25,
             range_noise_m: 0.02,
