@@ -77,15 +77,21 @@ fn tilt_after_a_second(start: Stance, start_tilted: bool, over_deg: f64) -> f64 
     up[2].clamp(-1.0, 1.0).acos().to_degrees()
 }
 
-#[test]
-fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
-    let p = SimulatorParams::default();
-    // base_link over the ground, square to the slope.
-    let z = p.base_height_m / SLOPE.cos();
+/// The rover at the origin as it stands on the slope (base_link over the
+/// ground, square to it), and the same put down level.
+fn stances() -> (Stance, Stance) {
+    let z = SimulatorParams::default().base_height_m / SLOPE.cos();
+    let level = Stance::level(0.0, 0.0, z, 0.0);
     let tilted = Stance {
         roll: SLOPE,
-        ..Stance::level(0.0, 0.0, z, 0.0)
+        ..level
     };
+    (tilted, level)
+}
+
+#[test]
+fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
+    let (tilted, level_stance) = stances();
     let never = 90.0;
     let tilt = tilt_after_a_second(tilted, true, never);
     assert!(
@@ -95,7 +101,7 @@ fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
     );
     // Put down level (the stance level, or the tilted start off): it
     // stands on a shelf cut into the slope, far less tilted than it is.
-    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0), true, never);
+    let level = tilt_after_a_second(level_stance, true, never);
     assert_eq!(
         tilt_after_a_second(tilted, false, never).to_bits(),
         level.to_bits()
@@ -105,14 +111,9 @@ fn a_rover_tilted_on_a_slope_starts_tilted_in_the_simulation() {
 
 #[test]
 fn with_the_tilted_start_off_a_rover_tilted_past_the_threshold_still_starts_tilted() {
-    let p = SimulatorParams::default();
-    let z = p.base_height_m / SLOPE.cos();
-    let tilted = Stance {
-        roll: SLOPE,
-        ..Stance::level(0.0, 0.0, z, 0.0)
-    };
+    let (tilted, level_stance) = stances();
     let as_it_stands = tilt_after_a_second(tilted, true, 90.0);
-    let level = tilt_after_a_second(Stance::level(0.0, 0.0, z, 0.0), false, 90.0);
+    let level = tilt_after_a_second(level_stance, false, 90.0);
     // About 20 degrees of roll: over a 15-degree threshold, as it stands...
     let over = tilt_after_a_second(tilted, false, 15.0);
     assert_eq!(over.to_bits(), as_it_stands.to_bits(), "{over:.1}");

@@ -80,8 +80,8 @@ pub const MAX_NO_GO: usize = 32;
 /// a wheel) is not driven over again.
 pub const NO_GO_RADIUS_M: f64 = 0.6;
 
-/// Places the rover slid back or stalled on a slope, kept for the rest
-/// of the mission (older ones are forgotten first).
+/// Places the rover slid back or stalled on a slope that are kept (past
+/// this many, the oldest goes).
 pub const MAX_SLIDES: usize = 16;
 
 /// A stop off the path, without progress or stuck that leaves the rover
@@ -224,8 +224,9 @@ pub struct Exploration {
     /// Where the rover was stuck: obstacles in every graph from then on.
     pub no_go: heapless::Deque<[f64; 3], MAX_NO_GO>,
     /// Where the rover slid on a slope (ground under it): the ground up
-    /// from there is barred in exploring graphs (never forgotten: the
-    /// slope is what it is).
+    /// from there is barred in exploring graphs. Not cleared by the second
+    /// look, unlike `no_go`: the slope is what it is (only the oldest goes
+    /// past [`MAX_SLIDES`]).
     pub slides: heapless::Deque<[f64; 3], MAX_SLIDES>,
     /// The next retrace backs out of a place the rover was stuck at.
     back_out: bool,
