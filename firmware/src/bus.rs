@@ -89,6 +89,9 @@ pub struct WheelCommand {
     /// Why the safety monitor stopped the rover on this plan
     /// (`speleo_control::StopReason` code; 0: it did not).
     pub stop: u8,
+    /// Where that stop's probe saw a drop ahead (a `LeavingMap` stop at a
+    /// rim, x and y in the map frame).
+    pub rim: Option<[f64; 2]>,
 }
 
 /// Poses a published plan holds at most.

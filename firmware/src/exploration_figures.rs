@@ -65,6 +65,9 @@ pub struct ExplorationFigures {
     /// Places the rover slid back or stalled climbing, pitched 17 degrees
     /// or more: the ground up from each is barred for exploring.
     pub slides: u64,
+    /// Rims the safety monitor stopped the rover at: no path goes within
+    /// 0.5 m of each from then on.
+    pub rims: u64,
     /// Candidate scans, and those that found nothing.
     pub scans: u64,
     pub scans_empty: u64,
@@ -104,6 +107,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         back_outs_refused: e.counters.back_outs_refused,
         second_looks: e.counters.second_looks,
         slides: e.counters.slides,
+        rims: e.counters.rims,
         climbed_m: e.climbed_m,
         descended_m: e.descended_m,
         scans: e.counters.scans,

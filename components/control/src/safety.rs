@@ -175,6 +175,8 @@ pub struct SafetyMonitor {
     /// Where the probe that made the last check's map stop looked (see
     /// [`trigger`](Self::trigger)).
     trigger: Option<[f64; 2]>,
+    /// The probe there saw a drop, not only no ground.
+    trigger_drop: bool,
 }
 
 /// A rover already tilted beyond the limit (stopped there) may move as
@@ -193,6 +195,7 @@ impl SafetyMonitor {
             start_xy: None,
             best_left: None,
             trigger: None,
+            trigger_drop: false,
         }
     }
 
@@ -215,9 +218,17 @@ impl SafetyMonitor {
         self.trigger
     }
 
+    /// Whether the last check's `LeavingMap` stop saw a drop at its
+    /// [`trigger`](Self::trigger) (ground far under the rover's: a rim),
+    /// rather than ground unseen for too long.
+    pub fn trigger_saw_drop(&self) -> bool {
+        self.trigger_drop
+    }
+
     /// Whether the command must not be sent, and why.
     pub fn check(&mut self, s: &MonitorInput, map: &impl GroundProbe) -> Option<StopReason> {
         self.trigger = None;
+        self.trigger_drop = false;
         let start = *self.start_tilt_deg.get_or_insert(s.tilt_deg);
         self.start_xy.get_or_insert([s.position[0], s.position[1]]);
         // Over the limit, a plan that began there may go on while the tilt
@@ -237,8 +248,9 @@ impl SafetyMonitor {
         if s.cross_track_m > self.p.max_cross_track_m {
             return Some(StopReason::OffPath);
         }
-        let (reason, at) = self.ahead(s, map)?;
+        let (reason, at, drop) = self.ahead(s, map)?;
         self.trigger = Some(at);
+        self.trigger_drop = drop;
         Some(reason)
     }
 
@@ -282,7 +294,12 @@ impl SafetyMonitor {
     /// the arc of its command. Probed straight ahead, a rover turning hard
     /// round a wall's end saw the wall it was turning away from, and was
     /// stopped there plan after plan (1,276 times in one lava-tube run).
-    fn ahead(&self, s: &MonitorInput, map: &impl GroundProbe) -> Option<(StopReason, [f64; 2])> {
+    /// The stop, the probe that made it and whether that probe saw a drop.
+    fn ahead(
+        &self,
+        s: &MonitorInput,
+        map: &impl GroundProbe,
+    ) -> Option<(StopReason, [f64; 2], bool)> {
         if s.v.abs() < 0.01 {
             return None;
         }
@@ -333,7 +350,7 @@ impl SafetyMonitor {
                 if map.probe(x, y, ground, tol) == Probe::Drop {
                     side_drop[i] += self.p.probe_step_m;
                     if side_drop[i] > self.p.max_drop_m {
-                        return Some((StopReason::LeavingMap, [x, y]));
+                        return Some((StopReason::LeavingMap, [x, y], true));
                     }
                 } else {
                     side_drop[i] = 0.0;
@@ -347,7 +364,7 @@ impl SafetyMonitor {
                 // that ring, drove off it.
                 drop += self.p.probe_step_m;
                 if drop > self.p.max_drop_m {
-                    return Some((StopReason::LeavingMap, [x, y]));
+                    return Some((StopReason::LeavingMap, [x, y], true));
                 }
             } else {
                 drop = 0.0;
@@ -361,11 +378,11 @@ impl SafetyMonitor {
                 Probe::NoGround | Probe::Drop => {
                     gap += self.p.probe_step_m;
                     if gap > self.p.max_gap_m {
-                        return Some((StopReason::LeavingMap, [x, y]));
+                        return Some((StopReason::LeavingMap, [x, y], probe == Probe::Drop));
                     }
                 }
                 Probe::Blocked if d <= self.p.blocked_within_m => {
-                    return Some((StopReason::Blocked, [x, y]));
+                    return Some((StopReason::Blocked, [x, y], false));
                 }
                 Probe::Blocked => gap = 0.0,
             }
@@ -381,13 +398,14 @@ impl SafetyMonitor {
                 let d = k as f64 * self.p.probe_step_m;
                 let r = self.p.front_m + d;
                 let (x, y) = front(d);
-                match map.probe(x, y, ground, self.p.max_step_m + r * slope) {
+                let probe = map.probe(x, y, ground, self.p.max_step_m + r * slope);
+                match probe {
                     Probe::Ground | Probe::Blocked => break,
                     Probe::NoGround if self.in_blind_zone(x, y) => break,
                     Probe::NoGround | Probe::Drop => {
                         gap += self.p.probe_step_m;
                         if gap > self.p.max_gap_m {
-                            return Some((StopReason::LeavingMap, [x, y]));
+                            return Some((StopReason::LeavingMap, [x, y], probe == Probe::Drop));
                         }
                     }
                 }
@@ -471,6 +489,8 @@ mod tests {
         // wheels; the next check (a new plan) forgets it.
         let [px, _] = m.trigger().expect("the stop's probe");
         assert!(px > 5.0 && px < x + 2.0, "probe at {px}");
+        // Nothing was seen beyond the edge: no drop seen, no rim.
+        assert!(!m.trigger_saw_drop());
         m.reset();
         assert_eq!(
             m.check(
@@ -600,6 +620,9 @@ mod tests {
             m.check(&input(0.0, 0.0), &Rim(Probe::Drop)),
             Some(StopReason::LeavingMap)
         );
+        // The probe saw the drop (a rim the exploration keeps), past 1 m.
+        assert!(m.trigger_saw_drop());
+        assert!(m.trigger().is_some_and(|[x, _]| x >= 1.0));
         // Unseen ground there is the blind ring, not an edge.
         let mut m = SafetyMonitor::new(SafetyParams::default());
         assert_eq!(m.check(&input(0.0, 0.0), &Rim(Probe::NoGround)), None);

@@ -806,6 +806,8 @@ impl TravMap {
             self.nodes[i as usize].class = TravClass::Unknown;
             return;
         };
+        self.heights_near_plane(mls, &n, &pl, reach);
+        let p = &self.params;
         let step = has_step(&self.heights, side, p.max_step_m);
         let steep = pl.slope_deg() > p.max_slope_deg;
         // A drop is an edge: cells of it along the footprint's rim, not one
@@ -834,6 +836,42 @@ impl TravMap {
         } else {
             TravClass::Traversable
         };
+    }
+
+    /// A footprint cell's ground height that is a thin slab's mean off the
+    /// support plane `pl` becomes the slab's top where that lies nearer
+    /// the plane ([`Patch::other_ground`]): the footprint's ground is
+    /// taken nearest the node's height, and across a slope a cell's mean
+    /// may be the nearer while the ground around says the top is the
+    /// ground the wheels meet. Only such cells: taking every cell's ground
+    /// nearest the plane smoothed steps away, and the lava tube's rover
+    /// was stuck 95 m in for good.
+    fn heights_near_plane(&mut self, mls: &MlsMap, n: &Node, pl: &plane::Plane, reach: i32) {
+        let res = self.resolution;
+        let (cx, cy) = ((n.ix as f64 + 0.5) * res, (n.iy as f64 + 0.5) * res);
+        let side = (2 * reach + 1) as usize;
+        let on_plane = self.params.inlier_distance_m;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                let k = (dy + reach) as usize * side + (dx + reach) as usize;
+                let h = self.heights[k];
+                let want = pl.z_at(cx + dx as f64 * res, cy + dy as f64 * res) as f32;
+                let off = (h - want).abs();
+                // NaN where the cell has no ground.
+                if off.is_nan() || off <= on_plane {
+                    continue;
+                }
+                let cell = self.near_cell(mls, n.ix + dx, n.iy + dy);
+                let top = cell
+                    .iter()
+                    .filter(|q| q.ground() == Some(h))
+                    .find_map(Patch::other_ground)
+                    .filter(|t| (t - want).abs() < off);
+                if let Some(t) = top {
+                    self.heights[k] = t;
+                }
+            }
+        }
     }
 
     /// Whether the ring of cells at `drop_clearance_m` from node `n` (one

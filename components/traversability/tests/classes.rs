@@ -582,6 +582,51 @@ fn a_ramp_slab_seen_from_above_and_below_is_climbed_on_its_top() {
     }
 }
 
+/// A ramp seen from the floor before it: in every fourth column of cells,
+/// points a fifth of a metre under the slope's top, seen from above too (a
+/// scan a little misregistered), share a thin patch with the top, whose
+/// mean they pull a step under the neighbours' ground. The ground around
+/// says such a cell stands at its top: the ramp is climbed.
+#[test]
+fn a_ramp_whose_cells_hold_points_under_the_top_is_climbed_on_its_top() {
+    let mut m = mls();
+    let rise = 14f64.to_radians().tan();
+    let ramp = |x: f64| rise * (x - 3.0);
+    surface(&mut m, (0.0, 3.0), (0.0, 4.0), |_, _| 0.0);
+    surface(&mut m, (3.0, 13.0), (0.0, 4.0), |x, _| ramp(x));
+    surface(&mut m, (13.0, 16.0), (0.0, 4.0), |_, _| ramp(13.0));
+    let mut low = Vec::new();
+    let mut px = 3.025;
+    while px < 13.0 {
+        if ((px * 10.0) as i64) % 4 == 1 {
+            let mut py = 0.025;
+            while py < 4.0 {
+                low.push([px, py, ramp(px) - 0.2]);
+                py += 0.05;
+            }
+        }
+        px += 0.05;
+    }
+    for _ in 0..3 {
+        m.insert_points(&low);
+    }
+    let (ix, iy) = m.cell_of(8.15, 2.0);
+    let q = m.cell(ix, iy)[0];
+    assert!(
+        q.kind == PatchKind::Horizontal && q.ground() == Some(q.mean) && q.top - q.mean > 0.12,
+        "the cell should stand at its mean, a step under its top: {q:?}"
+    );
+    let t = build(&m, [1.0, 2.0, 0.0]);
+    for x in [5.0f64, 8.15, 12.0, 14.5] {
+        let z = ramp(x.min(13.0));
+        let n = t.node_at(x, 2.0, z, 0.15).and_then(|i| t.node(i));
+        assert!(
+            n.is_some_and(|n| n.class.is_drivable() && (n.ground_z as f64 - z).abs() < 0.05),
+            "at x = {x}: {n:?}"
+        );
+    }
+}
+
 /// The tall patch of a ledge's face is ground only at its rim, where the
 /// upper floor meets it: from the lower floor it stays a wall.
 #[test]

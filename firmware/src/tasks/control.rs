@@ -41,6 +41,8 @@ pub struct ControlTask {
     /// The plan being followed (0: none yet).
     following: u64,
     stop: u8,
+    /// Where the stop's probe saw a drop (see [`WheelCommand::rim`]).
+    rim: Option<[f64; 2]>,
     last_run_ns: Option<u64>,
     /// Reduced mode: half speed.
     degraded: bool,
@@ -62,6 +64,7 @@ impl ControlTask {
             monitor,
             following: 0,
             stop: 0,
+            rim: None,
             last_run_ns: None,
             degraded: false,
             counters: ControlCounters::default(),
@@ -85,6 +88,7 @@ impl ControlTask {
         }
         self.following = plan.query;
         self.stop = 0;
+        self.rim = None;
         self.monitor.reset();
         self.counters.plans_followed += 1;
         let poses = plan
@@ -239,6 +243,10 @@ impl Task<Bus> for ControlTask {
                         "safety stop"
                     );
                     self.stop = r as u8;
+                    self.rim = self
+                        .monitor
+                        .trigger()
+                        .filter(|_| r == StopReason::LeavingMap && self.monitor.trigger_saw_drop());
                     self.counters.stops[r as usize - 1] += 1;
                     plans.abandon();
                     // A safety stop does not ramp.
@@ -263,6 +271,7 @@ impl Task<Bus> for ControlTask {
                 done: self.done(),
                 plan: self.following,
                 stop: self.stop,
+                rim: self.rim,
             },
         );
     }
@@ -414,6 +423,42 @@ mod tests {
         // over the ground that was seen.
         assert!(x + 0.5 < 5.0 && x > 3.5, "stopped at x = {x}");
         assert_eq!(t.counters.stops[StopReason::LeavingMap as usize - 1], 1);
+        // Nothing was seen beyond: a gap, no rim.
+        assert_eq!(c.rim, None);
+    }
+
+    #[test]
+    fn a_stop_before_a_drop_seen_says_where_the_rim_is_until_the_next_plan() {
+        let mut bus = bus_with_a_ledge();
+        // The floor 2 m under the ledge, seen beyond it.
+        let floor: Vec<[f64; 3]> = (0..60)
+            .flat_map(|i| (0..80).map(move |j| (i, j)))
+            .map(|(i, j)| [5.025 + i as f64 * 0.05, j as f64 * 0.05 + 0.025, -2.0])
+            .collect();
+        let m = bus.surface.active();
+        bus.surface.map_mut(m).insert_points(&floor);
+        let mut t = task();
+        let out = (0..=80).map(|k| [1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
+        let Ended { x, command: c, .. } = drive(&mut bus, &mut t, out);
+        assert_eq!(StopReason::from_code(c.stop), Some(StopReason::LeavingMap));
+        assert!(x + 0.5 < 5.0, "stopped at x = {x}");
+        let rim = c.rim.unwrap_or_else(|| panic!("no rim: {c:?}"));
+        assert!(
+            rim[0] > 5.0 && rim[0] < 5.5 && (rim[1] - 2.0).abs() < 0.3,
+            "{rim:?}"
+        );
+        // The next plan starts without it.
+        let mut next = PlanMsg {
+            query: 2,
+            execute: true,
+            optimal: true,
+            ..PlanMsg::default()
+        };
+        let _ = next.poses.push([1.0, 2.0, 0.0, 0.0]);
+        let _ = next.poses.push([2.0, 2.0, 0.0, 0.0]);
+        bus.plan.publish(1, next);
+        t.run(&mut bus, &cx(9001));
+        assert_eq!(bus.command.get().and_then(|c| c.value.rim), None);
     }
 
     #[test]

@@ -50,6 +50,9 @@ pub struct ExplorationCounters {
     /// Places the rover slid back or stalled climbing a slope, from which
     /// the ground up is barred for exploring (see [`SLIDE_PITCH_DEG`]).
     pub slides: u64,
+    /// Rims the safety monitor stopped the rover at (a drop seen ahead),
+    /// around which no path goes from then on (see [`RIM_RADIUS_M`]).
+    pub rims: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground,
     /// no way back).
@@ -97,6 +100,17 @@ pub const SLIDE_PITCH_DEG: f64 = 17.0;
 /// across the tube); the way down stays open, m.
 pub const SLIDE_RADIUS_M: f64 = 3.0;
 pub const SLIDE_RISE_M: f64 = 0.3;
+
+/// Rims kept (past this many, the oldest goes).
+pub const MAX_RIMS: usize = 16;
+
+/// Around where the safety monitor saw a drop ahead and stopped the rover,
+/// no path goes, m: the front wheels' reach from the centre. The planner's
+/// footprint takes cells with nothing seen in them for nothing, and on
+/// the garage's roof a rover sent to a goal 0.2 m from two rims was
+/// stopped short of one; the next plans, arcs forward (no point turns),
+/// took its wheels over the other and turned it over.
+pub const RIM_RADIUS_M: f64 = 0.5;
 
 /// After a stuck stop the rover backs this far, m.
 const BACK_OUT_M: f64 = 1.0;
@@ -228,6 +242,10 @@ pub struct Exploration {
     /// look, unlike `no_go`: the slope is what it is (only the oldest goes
     /// past [`MAX_SLIDES`]).
     pub slides: heapless::Deque<[f64; 3], MAX_SLIDES>,
+    /// Where the safety monitor saw a drop ahead (x, y, and the rover's
+    /// ground there): obstacles within [`RIM_RADIUS_M`] in every graph.
+    /// Kept like slides: a rim is what it is.
+    pub rims: heapless::Deque<[f64; 3], MAX_RIMS>,
     /// The next retrace backs out of a place the rover was stuck at.
     back_out: bool,
     /// The plan under way is a back-out.
@@ -307,6 +325,7 @@ impl Exploration {
             descended_m: 0.0,
             no_go: heapless::Deque::new(),
             slides: heapless::Deque::new(),
+            rims: heapless::Deque::new(),
             back_out: false,
             backing_out: false,
             ended: 0,
@@ -346,6 +365,31 @@ impl Exploration {
             );
             self.explorer.strand();
         }
+    }
+
+    /// A plan ended in a stop at a rim ([`WheelCommand::rim`]): the place
+    /// is kept (see [`Exploration::rims`]), once within half
+    /// [`RIM_RADIUS_M`].
+    ///
+    /// [`WheelCommand::rim`]: crate::bus::WheelCommand::rim
+    fn note_rim(&mut self, bus: &Bus) {
+        let rim = bus.command.get().and_then(|c| c.value.rim);
+        let (Some([x, y]), Some(p)) = (rim, bus.slam.get().map(|p| p.value.position)) else {
+            return;
+        };
+        let at = [x, y, p[2] - self.base_height_m];
+        let known = self.rims.iter().any(|q| {
+            (q[0] - at[0]).hypot(q[1] - at[1]) < RIM_RADIUS_M / 2.0 && (q[2] - at[2]).abs() < 0.3
+        });
+        if known {
+            return;
+        }
+        if self.rims.is_full() {
+            self.rims.pop_front();
+        }
+        let _ = self.rims.push_back(at);
+        self.counters.rims += 1;
+        tracing::debug!(x, y, z = at[2], "stopped at a rim: no path goes near it");
     }
 
     /// An exploring plan ended with `stop` off the path, without progress
@@ -927,6 +971,7 @@ impl Exploration {
                 self.escape_attempts = 0;
             }
             self.note_slide(stop, bus);
+            self.note_rim(bus);
             self.count_tilt_stall(stop, bus);
         }
         let since = *self.idle_since.get_or_insert(now);
@@ -1078,5 +1123,46 @@ mod tests {
         pitched(&mut bus, [30.0, 0.0, -3.0], -22.0);
         e.note_slide(StopReason::Stuck as u8, &bus);
         assert_eq!(e.slides.len(), 1);
+    }
+
+    #[test]
+    fn a_stop_at_a_rim_is_kept_once_on_the_rovers_ground() {
+        use crate::bus::WheelCommand;
+        let mut e = exploration();
+        e.set_base_height(0.2);
+        let mut bus = Bus::new();
+        at(&mut bus, [3.0, 1.0, 9.2]);
+        let stop = |bus: &mut Bus, rim: Option<[f64; 2]>| {
+            bus.command.publish(
+                0,
+                WheelCommand {
+                    done: true,
+                    stop: StopReason::LeavingMap as u8,
+                    rim,
+                    ..Default::default()
+                },
+            );
+        };
+        // Ground unseen ahead: no rim.
+        stop(&mut bus, None);
+        e.note_rim(&bus);
+        assert!(e.rims.is_empty());
+        stop(&mut bus, Some([3.6, 1.9]));
+        e.note_rim(&bus);
+        stop(&mut bus, Some([3.7, 1.95]));
+        e.note_rim(&bus);
+        assert_eq!((e.rims.len(), e.counters.rims), (1, 1));
+        let r = *e.rims.front().expect("a rim");
+        assert!(
+            (r[0] - 3.6).abs() < 1e-9 && (r[2] - 9.0).abs() < 1e-9,
+            "{r:?}"
+        );
+        // Past the limit, the oldest goes.
+        for k in 0..MAX_RIMS {
+            stop(&mut bus, Some([10.0 + k as f64, 0.0]));
+            e.note_rim(&bus);
+        }
+        assert_eq!(e.rims.len(), MAX_RIMS);
+        assert!(e.rims.front().is_some_and(|r| r[0] == 10.0));
     }
 }

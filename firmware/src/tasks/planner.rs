@@ -32,7 +32,9 @@ use speleo_simulator::{Outcome, Stance};
 use crate::bus::{Bus, PlanMsg};
 use crate::config::PlannerConfig;
 use crate::tasks::control::yaw_of;
-use crate::tasks::exploration::{Exploration, NO_GO_RADIUS_M, SLIDE_RADIUS_M, SLIDE_RISE_M};
+use crate::tasks::exploration::{
+    Exploration, NO_GO_RADIUS_M, RIM_RADIUS_M, SLIDE_RADIUS_M, SLIDE_RISE_M,
+};
 
 /// Results kept for the report's medians (a query every few seconds: days
 /// of mission).
@@ -1100,6 +1102,12 @@ impl PlannerTask {
                                 .trav_mut()
                                 .forbid(*p, NO_GO_RADIUS_M, keep, NO_GO_SPARE_M);
                         }
+                        // Nor near a rim the rover was stopped at.
+                        for p in ex.rims.iter() {
+                            self.lat
+                                .trav_mut()
+                                .forbid(*p, RIM_RADIUS_M, keep, NO_GO_SPARE_M);
+                        }
                         // Exploring, not up a slope the rover slid on (the
                         // way home may have to go up one).
                         if ex.explorer.mode() == Mode::Exploring {
@@ -1885,6 +1893,11 @@ mod tests {
     /// The far end of the floor as the target, and perhaps a place the
     /// rover was stuck at on the straight way there: the plan.
     fn plan_toward_the_far_end(no_go: Option<[f64; 3]>) -> PlanMsg {
+        plan_toward_the_far_end_barred(no_go, None)
+    }
+
+    /// As [`plan_toward_the_far_end`], with a rim kept too.
+    fn plan_toward_the_far_end_barred(no_go: Option<[f64; 3]>, rim: Option<[f64; 3]>) -> PlanMsg {
         let e = crate::config::ExplorationConfig {
             weight_target: 5.0,
             ..Default::default()
@@ -1898,6 +1911,9 @@ mod tests {
         if let Some(p) = no_go {
             let _ = ex.no_go.push_back(p);
         }
+        if let Some(p) = rim {
+            let _ = ex.rims.push_back(p);
+        }
         let mut t = task(&[]).with_exploration(ex);
         let mut bus = bus_on_a_floor();
         run_query(&mut t, &mut bus);
@@ -1909,6 +1925,22 @@ mod tests {
             .iter()
             .map(|p| (p[0] as f64 - at[0]).hypot(p[1] as f64 - at[1]))
             .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn a_rim_the_rover_was_stopped_at_is_kept_out_of_its_plans() {
+        let free = plan_toward_the_far_end(None);
+        let p = free
+            .poses
+            .iter()
+            .find(|p| p[0] > 3.0)
+            .copied()
+            .unwrap_or_else(|| panic!("{free:?}"));
+        let at = [p[0] as f64, p[1] as f64];
+        assert!(nearest_m(&free, at) < RIM_RADIUS_M);
+        let wary = plan_toward_the_far_end_barred(None, Some([at[0], at[1], p[2] as f64]));
+        assert!(wary.execute, "{wary:?}");
+        assert!(nearest_m(&wary, at) > RIM_RADIUS_M, "{wary:?}");
     }
 
     #[test]

@@ -121,15 +121,37 @@ impl Patch {
     ///   the lip as ground narrowed the lava tube's squeeze until the
     ///   mission ended there.
     pub fn ground(&self) -> Option<f32> {
-        let slab = self.under > f32::MIN && self.top - self.under > SLAB_GAP_M;
-        let top_over_underside =
-            !self.under_seen_from_above && (self.top_seen_from_above || !self.seen_from_above);
         match self.kind {
-            PatchKind::Horizontal if slab && top_over_underside => Some(self.top),
+            PatchKind::Horizontal if self.slab() && self.top_over_underside() => Some(self.top),
             PatchKind::Horizontal => Some(self.mean),
-            PatchKind::Vertical if slab => Some(self.top),
+            PatchKind::Vertical if self.slab() => Some(self.top),
             PatchKind::Vertical => None,
         }
+    }
+
+    /// The other height one may stand at on a thin slab that
+    /// [`Patch::ground`] puts at its mean because points under its top were
+    /// seen from above too: its top. Which of the two is ground, the
+    /// ground around says ([`ground_near`] takes the one nearer the height
+    /// asked for). Up a garage ramp seen from the floor before it, cells
+    /// held the slope's top with points a fifth of a metre under it, also
+    /// seen from above; at their mean they stood a step under their
+    /// neighbours, and the rover never left the ground floor. From the
+    /// floor beside a lip, the mean is still the nearer.
+    pub fn other_ground(&self) -> Option<f32> {
+        (self.kind == PatchKind::Horizontal && self.slab() && !self.top_over_underside())
+            .then_some(self.top)
+    }
+
+    /// A top cluster [`SLAB_GAP_M`] clear of the points under it.
+    fn slab(&self) -> bool {
+        self.under > f32::MIN && self.top - self.under > SLAB_GAP_M
+    }
+
+    /// The top was seen from above, or nothing was, and nothing under it
+    /// was seen from above.
+    fn top_over_underside(&self) -> bool {
+        !self.under_seen_from_above && (self.top_seen_from_above || !self.seen_from_above)
     }
 
     /// Adds `n` points of mean `z` and highest `z_hi` to the top cluster:
@@ -352,12 +374,13 @@ fn merge_around(patches: &mut [Patch], len: &mut usize, mut i: usize, rule: &Cel
 }
 
 /// The ground height of `cell` nearest `z` within `tol` (the lower on a
-/// tie): see [`Patch::ground`]; an underside under `z` is not ground
-/// ([`Patch::underside_for`]).
+/// tie): see [`Patch::ground`] and [`Patch::other_ground`]; an underside
+/// under `z` is not ground ([`Patch::underside_for`]).
 pub fn ground_near(cell: &[Patch], z: f32, tol: f32) -> Option<f32> {
     cell.iter()
         .filter(|q| !q.underside_for(z))
-        .filter_map(Patch::ground)
+        .flat_map(|q| [q.ground(), q.other_ground()])
+        .flatten()
         .filter(|g| (g - z).abs() <= tol)
         .min_by(|a, b| (a - z).abs().total_cmp(&(b - z).abs()))
 }
