@@ -1927,8 +1927,9 @@ mod tests {
             .fold(f64::INFINITY, f64::min)
     }
 
-    #[test]
-    fn a_rim_the_rover_was_stopped_at_is_kept_out_of_its_plans() {
+    /// The plan made with nothing barred, and its first pose past x = 3
+    /// (x, y and ground height).
+    fn free_plan_and_its_pose_past_x3() -> (PlanMsg, [f64; 3]) {
         let free = plan_toward_the_far_end(None);
         let p = free
             .poses
@@ -1936,9 +1937,15 @@ mod tests {
             .find(|p| p[0] > 3.0)
             .copied()
             .unwrap_or_else(|| panic!("{free:?}"));
-        let at = [p[0] as f64, p[1] as f64];
+        (free, [p[0] as f64, p[1] as f64, p[2] as f64])
+    }
+
+    #[test]
+    fn a_rim_the_rover_was_stopped_at_is_kept_out_of_its_plans() {
+        let (free, [x, y, z]) = free_plan_and_its_pose_past_x3();
+        let at = [x, y];
         assert!(nearest_m(&free, at) < RIM_RADIUS_M);
-        let wary = plan_toward_the_far_end_barred(None, Some([at[0], at[1], p[2] as f64]));
+        let wary = plan_toward_the_far_end_barred(None, Some([x, y, z]));
         assert!(wary.execute, "{wary:?}");
         assert!(nearest_m(&wary, at) > RIM_RADIUS_M, "{wary:?}");
     }
@@ -1946,14 +1953,8 @@ mod tests {
     #[test]
     fn a_place_the_rover_was_stuck_at_is_kept_out_of_its_plans() {
         // A pose of the plan made without it, before the boulder.
-        let free = plan_toward_the_far_end(None);
-        let p = free
-            .poses
-            .iter()
-            .find(|p| p[0] > 3.0)
-            .copied()
-            .unwrap_or_else(|| panic!("{free:?}"));
-        let at = [p[0] as f64, p[1] as f64];
+        let (_, [x, y, _]) = free_plan_and_its_pose_past_x3();
+        let at = [x, y];
         let wary = plan_toward_the_far_end(Some([at[0], at[1], 0.0]));
         assert!(wary.execute, "{wary:?}");
         assert!(nearest_m(&wary, at) > NO_GO_RADIUS_M, "{wary:?}");
