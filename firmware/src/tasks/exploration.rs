@@ -258,6 +258,8 @@ pub struct Exploration {
     escape_attempts: u32,
     /// Where the last retrace began, and whether it was driven backward.
     retraced_from: Option<([f64; 3], bool)>,
+    /// How the last plan ended ([`StopReason`] code, 0: at its end).
+    last_stop: u8,
     /// Retraces refused in a row where the last one began.
     refused_here: u32,
     /// Plans in a row stopped for tilt where the one before was (see
@@ -332,6 +334,7 @@ impl Exploration {
             second_look_taken: false,
             escape_attempts: 0,
             retraced_from: None,
+            last_stop: 0,
             refused_here: 0,
             tilt_stalls: 0,
             last_tilt_stop: [f64::INFINITY; 3],
@@ -479,7 +482,10 @@ impl Exploration {
         }
         self.backing_out = false;
         self.counters.retraces += 1;
-        let Some(pose) = bus.slam.get().map(|p| p.value.position) else {
+        let Some((pose, yaw)) = bus.slam.get().map(|p| {
+            let yaw = crate::tasks::control::yaw_of(p.value.orientation);
+            (p.value.position, yaw)
+        }) else {
             return false;
         };
         // Exploring, back the way the rover came; going home, back along
@@ -536,11 +542,19 @@ impl Exploration {
         // mesh world's junction, turning round onto the track tilted the
         // rover on a rim, stop after stop for the rest of the mission.
         // (Backward every time, the lava tube's rover tilted backing down
-        // a slope it had driven up.)
+        // a slope it had driven up.) Stopped short of ground it could not
+        // see, facing the way the rover faces: no turn where the ground
+        // ends (on the garage's roof, 0.3 m from its rim, the turn put a
+        // wheel over it, and the rover tipped over).
         let again_here = self
             .retraced_from
             .filter(|(p, _)| (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M);
-        let backward = again_here.is_some_and(|(_, b)| !b);
+        let next = points[1.min(n - 1)];
+        let first_leg = (next[1] - pose[1]).atan2(next[0] - pose[0]);
+        let backward = match again_here {
+            Some((_, b)) => !b,
+            None => self.last_stop == StopReason::LeavingMap as u8 && (yaw - first_leg).cos() < 0.0,
+        };
         if again_here.is_none() {
             self.refused_here = 0;
         }
@@ -938,6 +952,7 @@ impl Exploration {
             // was stopped on the way to is not tried again.
             self.ended = self.executing;
             let stop = bus.command.get().map_or(0, |c| c.value.stop);
+            self.last_stop = stop;
             if let (true, Mode::Exploring, Some(g)) =
                 (stop != 0, self.explorer.mode(), bus.exploration.goal)
             {
@@ -1033,6 +1048,50 @@ mod tests {
         e.retrace(&mut bus, 2, 2, 5.0);
         let home = end(&bus).unwrap_or_else(|| panic!("no retrace"));
         assert!(home[0] < 6.0, "{home:?}");
+    }
+
+    #[test]
+    fn a_rover_stopped_at_the_maps_edge_retraces_without_turning_round() {
+        use crate::bus::WheelCommand;
+        let heading_after = |stop: StopReason, yaw: f64| {
+            let mut e = exploration();
+            let mut bus = Bus::new();
+            // Out along x to 10 m.
+            for k in 0..=10 {
+                e.explorer.observe(k as f64, [k as f64, 0.0, 0.0]);
+            }
+            e.homed = true;
+            bus.slam.publish(
+                0,
+                SlamPose {
+                    position: [10.0, 0.0, 0.0],
+                    orientation: [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()],
+                    keyframes: 1,
+                },
+            );
+            bus.command.publish(
+                0,
+                WheelCommand {
+                    done: true,
+                    stop: stop as u8,
+                    ..Default::default()
+                },
+            );
+            assert!(!e.ready(&bus, 0), "settling");
+            e.retrace(&mut bus, 1, 1, 4.0);
+            let poses = bus.plan.get().map(|p| p.value.poses.clone());
+            let poses = poses.unwrap_or_else(|| panic!("no retrace"));
+            assert!(poses.iter().all(|q| q[0] <= 10.0 + 1e-3), "{poses:?}");
+            poses[1][3]
+        };
+        // Blocked: back along the track, facing it (turning round first).
+        assert!(heading_after(StopReason::Blocked, 0.0).abs() > 3.0);
+        // At the map's edge: backing along it, facing the way it came.
+        assert!(heading_after(StopReason::LeavingMap, 0.0).abs() < 0.1);
+        // Stopped there backing up (facing back along the track): driven
+        // forward, facing the way it faces still.
+        let back = heading_after(StopReason::LeavingMap, std::f64::consts::PI);
+        assert!(back.abs() > 3.0, "{back}");
     }
 
     #[test]

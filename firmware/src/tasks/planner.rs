@@ -1306,6 +1306,7 @@ fn trace_graph_near(trav: &speleo_traversability::TravMap, rover: [f64; 3], radi
             slope_deg = n.slope_deg,
             class = ?n.class,
             blocked = ?n.blocked,
+            cut = n.cut,
             "node"
         );
     }
