@@ -544,8 +544,9 @@ impl Exploration {
         // (Backward every time, the lava tube's rover tilted backing down
         // a slope it had driven up.) Stopped short of ground it could not
         // see, facing the way the rover faces: no turn where the ground
-        // ends (on the garage's roof, 0.3 m from its rim, the turn put a
-        // wheel over it, and the rover tipped over).
+        // ends (stopped so at the garage's first ramp's top, the rover
+        // backed down it, and went on to the roof; turning round there,
+        // it never reached the roof).
         let again_here = self
             .retraced_from
             .filter(|(p, _)| (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M);
