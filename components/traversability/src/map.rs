@@ -855,9 +855,12 @@ impl TravMap {
             for dx in -reach..=reach {
                 let k = (dy + reach) as usize * side + (dx + reach) as usize;
                 let h = self.heights[k];
+                // NaN where the cell has no ground (or lies off the disc).
+                if h.is_nan() {
+                    continue;
+                }
                 let want = pl.z_at(cx + dx as f64 * res, cy + dy as f64 * res) as f32;
                 let off = (h - want).abs();
-                // NaN where the cell has no ground.
                 if off.is_nan() || off <= on_plane {
                     continue;
                 }

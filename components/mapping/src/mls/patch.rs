@@ -143,6 +143,19 @@ impl Patch {
             .then_some(self.top)
     }
 
+    /// [`Patch::ground`] and [`Patch::other_ground`] at once.
+    #[inline]
+    pub fn grounds(&self) -> (Option<f32>, Option<f32>) {
+        let slab = self.slab();
+        match self.kind {
+            PatchKind::Horizontal if slab && self.top_over_underside() => (Some(self.top), None),
+            PatchKind::Horizontal if slab => (Some(self.mean), Some(self.top)),
+            PatchKind::Horizontal => (Some(self.mean), None),
+            PatchKind::Vertical if slab => (Some(self.top), None),
+            PatchKind::Vertical => (None, None),
+        }
+    }
+
     /// A top cluster [`SLAB_GAP_M`] clear of the points under it.
     fn slab(&self) -> bool {
         self.under > f32::MIN && self.top - self.under > SLAB_GAP_M
@@ -377,12 +390,24 @@ fn merge_around(patches: &mut [Patch], len: &mut usize, mut i: usize, rule: &Cel
 /// tie): see [`Patch::ground`] and [`Patch::other_ground`]; an underside
 /// under `z` is not ground ([`Patch::underside_for`]).
 pub fn ground_near(cell: &[Patch], z: f32, tol: f32) -> Option<f32> {
-    cell.iter()
-        .filter(|q| !q.underside_for(z))
-        .flat_map(|q| [q.ground(), q.other_ground()])
-        .flatten()
-        .filter(|g| (g - z).abs() <= tol)
-        .min_by(|a, b| (a - z).abs().total_cmp(&(b - z).abs()))
+    // One pass, each patch's slab test made once: on the graph's growth
+    // path, for every footprint cell (the first ties kept, as before).
+    let mut best = None;
+    let mut best_d = f32::INFINITY;
+    for q in cell {
+        if q.underside_for(z) {
+            continue;
+        }
+        let (g, other) = q.grounds();
+        for c in [g, other].into_iter().flatten() {
+            let d = (c - z).abs();
+            if d <= tol && d < best_d {
+                best = Some(c);
+                best_d = d;
+            }
+        }
+    }
+    best
 }
 
 /// Whether `cell` shows a drop at height `z`: nothing within `tol` of it,
