@@ -222,6 +222,7 @@ pub fn internal_sim(e: &Exploration, minor_frame_us: u32) -> Option<InternalSimF
         "missed",
         "no_ground",
         "no_way_back",
+        "overhang",
     ];
     Some(InternalSimFigures {
         validations: c.validations,

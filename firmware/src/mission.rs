@@ -361,6 +361,7 @@ pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParam
         start_tilted: s.start_tilted,
         start_tilted_over_deg: s.start_tilted_over_deg,
         way_back_drop_m: s.way_back_drop_m,
+        overhang_depth_m: s.overhang_depth_m,
         ..speleo_simulator::SimulatorParams::default()
     }
 }

@@ -102,6 +102,7 @@ fn outcome_code(o: Option<Outcome>) -> u8 {
         Some(Outcome::Missed) => 5,
         Some(Outcome::NoGround) => 6,
         Some(Outcome::NoWayBack) => 7,
+        Some(Outcome::Overhang) => 8,
     }
 }
 
@@ -115,6 +116,7 @@ fn outcome_from(c: u8) -> Result<Option<Outcome>, CaseError> {
         5 => Outcome::Missed,
         6 => Outcome::NoGround,
         7 => Outcome::NoWayBack,
+        8 => Outcome::Overhang,
         _ => return Err(CaseError::Outcome(c)),
     }))
 }

@@ -56,6 +56,12 @@ pub struct SimulatorParams {
     /// A plan that took the rover down more than this is driven back too
     /// when asked ([`crate::InternalSim::check_way_back`]), m; 0: never.
     pub way_back_drop_m: f64,
+    /// A goal reached with a wheel's hub more than this over the ground
+    /// its radius reaches, or over none, is refused (`Overhang`), m; 0:
+    /// never. Past a roof's rim the mesh ends: the garage's simulated
+    /// rover stood at its goal with two wheels 0.11 m past the rim, and
+    /// passed; the real one, there, tipped in every try to leave.
+    pub overhang_depth_m: f64,
 }
 
 impl Default for SimulatorParams {
@@ -97,6 +103,7 @@ impl Default for SimulatorParams {
             start_tilted: false,
             start_tilted_over_deg: 15.0,
             way_back_drop_m: 0.0,
+            overhang_depth_m: 0.3,
             physics,
         }
     }
@@ -123,6 +130,12 @@ impl SimulatorParams {
             return Err(format!(
                 "simulator way_back_drop_m must be 0 or more, is {}",
                 self.way_back_drop_m
+            ));
+        }
+        if !(self.overhang_depth_m.is_finite() && self.overhang_depth_m >= 0.0) {
+            return Err(format!(
+                "simulator overhang_depth_m must be 0 or more, is {}",
+                self.overhang_depth_m
             ));
         }
         if !(0.0..=90.0).contains(&self.start_tilted_over_deg) {

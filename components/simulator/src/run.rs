@@ -51,6 +51,9 @@ pub enum Outcome {
     /// The goal was reached, down a slope the rover could not drive back
     /// up (see [`InternalSim::check_way_back`]).
     NoWayBack,
+    /// The goal was reached with a wheel over an edge: no ground under
+    /// its hub within its radius and `overhang_depth_m`.
+    Overhang,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -715,10 +718,12 @@ impl InternalSim {
         }
         if self.step > settle_steps && self.follower.done() {
             let e = self.goal_error();
-            let outcome = if e <= self.p.goal_tolerance_m {
-                Outcome::Reached
-            } else {
+            let outcome = if e > self.p.goal_tolerance_m {
                 Outcome::Missed
+            } else if self.overhangs() {
+                Outcome::Overhang
+            } else {
+                Outcome::Reached
             };
             if outcome == Outcome::Reached && self.way_back_due() {
                 self.begin_way_back(t, [x, y], yaw);
@@ -746,6 +751,18 @@ impl InternalSim {
             return self.verdict_now(Outcome::Timeout);
         }
         None
+    }
+
+    /// Whether a wheel stands over an edge of the ground built: what the
+    /// rover may pass over, but should not stop on.
+    fn overhangs(&self) -> bool {
+        let (Some(r), d) = (&self.rover, self.p.overhang_depth_m) else {
+            return false;
+        };
+        d > 0.0
+            && r.ground_under_hubs(self.p.physics.wheel_radius_m + d)
+                .iter()
+                .any(Option::is_none)
     }
 
     /// Whether the goal just reached calls for the way back: asked for,

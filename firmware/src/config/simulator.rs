@@ -53,6 +53,9 @@ pub struct SimulatorConfig {
     /// driven back up too, backward to its start, and refused when that
     /// fails (`no_way_back`), m; 0: never.
     pub way_back_drop_m: f64,
+    /// A plan that ends with a wheel's hub over no ground within its
+    /// radius and this much more is refused (`overhang`), m; 0: never.
+    pub overhang_depth_m: f64,
 }
 
 impl Default for SimulatorConfig {
@@ -73,6 +76,7 @@ impl Default for SimulatorConfig {
             start_tilted: p.start_tilted,
             start_tilted_over_deg: p.start_tilted_over_deg,
             way_back_drop_m: p.way_back_drop_m,
+            overhang_depth_m: p.overhang_depth_m,
         }
     }
 }
@@ -125,6 +129,13 @@ impl SimulatorConfig {
             0.0,
             100.0,
             "0..=100",
+        )?;
+        range(
+            &k("overhang_depth_m"),
+            self.overhang_depth_m,
+            0.0,
+            10.0,
+            "0..=10",
         )?;
         range(&k("worker_units"), self.worker_units, 0, 4096, "0..=4096")?;
         Ok(())

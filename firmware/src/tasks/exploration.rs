@@ -59,7 +59,7 @@ pub struct ExplorationCounters {
     pub validations: u64,
     pub validated: u64,
     pub rejected_by_sim: u64,
-    pub sim_outcomes: [u64; 6],
+    pub sim_outcomes: [u64; 7],
     pub sim_physics_steps: u64,
     pub sim_triangles_max: u64,
     /// Refused plans whose first part, the part the simulated rover drove
@@ -581,6 +581,13 @@ impl Exploration {
             y = pose[1],
             to_x = points[n - 1][0],
             to_y = points[n - 1][1],
+            // What the facing rule saw (at a garage roof's rim it drove
+            // forward after a stop there, and why was not known).
+            next_x = next[0],
+            next_y = next[1],
+            yaw_deg = yaw.to_degrees(),
+            first_leg_deg = first_leg.to_degrees(),
+            last_stop = self.last_stop,
             backward,
             "retracing"
         );
@@ -817,6 +824,7 @@ impl Exploration {
             Outcome::Missed => 3,
             Outcome::NoGround => 4,
             Outcome::NoWayBack => 5,
+            Outcome::Overhang => 6,
         };
         self.counters.rejected_by_sim += 1;
         self.counters.sim_outcomes[k] += 1;

@@ -330,6 +330,23 @@ impl PhysicsRover {
         out
     }
 
+    /// How far under each wheel's hub (FL, FR, RL, RR) the ground lies,
+    /// straight down, m; `None` where none lies within `max_m`: a wheel
+    /// over an edge of the ground built so far.
+    pub fn ground_under_hubs(&self, max_m: f64) -> [Option<f64>; WHEELS] {
+        let down = Vector::new(0.0, 0.0, -1.0);
+        self.wheels.map(|h| {
+            let hub = self.world.bodies[h].translation();
+            let ray = Ray::new(hub, down);
+            self.ground
+                .iter()
+                .filter_map(|&g| self.world.colliders.get(g))
+                .filter_map(|c| c.shape().cast_ray(c.position(), &ray, max_m as f32, true))
+                .min_by(f32::total_cmp)
+                .map(f64::from)
+        })
+    }
+
     /// The state after the last step.
     pub fn state(&self) -> &BodyState {
         &self.state

@@ -120,13 +120,9 @@ impl Patch {
     ///   something low on it, such as a wall's foot under a lip: reading
     ///   the lip as ground narrowed the lava tube's squeeze until the
     ///   mission ended there.
+    #[inline]
     pub fn ground(&self) -> Option<f32> {
-        match self.kind {
-            PatchKind::Horizontal if self.slab() && self.top_over_underside() => Some(self.top),
-            PatchKind::Horizontal => Some(self.mean),
-            PatchKind::Vertical if self.slab() => Some(self.top),
-            PatchKind::Vertical => None,
-        }
+        self.grounds().0
     }
 
     /// The other height one may stand at on a thin slab that
@@ -138,12 +134,13 @@ impl Patch {
     /// seen from above; at their mean they stood a step under their
     /// neighbours, and the rover never left the ground floor. From the
     /// floor beside a lip, the mean is still the nearer.
+    #[inline]
     pub fn other_ground(&self) -> Option<f32> {
-        (self.kind == PatchKind::Horizontal && self.slab() && !self.top_over_underside())
-            .then_some(self.top)
+        self.grounds().1
     }
 
-    /// [`Patch::ground`] and [`Patch::other_ground`] at once.
+    /// [`Patch::ground`] and [`Patch::other_ground`] at once (the one
+    /// place their rules are written).
     #[inline]
     pub fn grounds(&self) -> (Option<f32>, Option<f32>) {
         let slab = self.slab();
