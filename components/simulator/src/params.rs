@@ -58,9 +58,11 @@ pub struct SimulatorParams {
     pub way_back_drop_m: f64,
     /// A goal reached with a wheel's hub more than this over the ground
     /// its radius reaches, or over none, is refused (`Overhang`), m; 0:
-    /// never. Past a roof's rim the mesh ends: the garage's simulated
-    /// rover stood at its goal with two wheels 0.11 m past the rim, and
-    /// passed; the real one, there, tipped in every try to leave.
+    /// never. It sees the ground built (mesh, pad and strip), so it
+    /// refuses goals where that ends under a hub, such as where the strip
+    /// drops past a seen edge. It misses a roof's unseen rim: no ray
+    /// returns past it, the strip runs on at the roof's height and holds
+    /// the wheels (the garage's roof goal 0.15 m from the rim passed).
     pub overhang_depth_m: f64,
 }
 

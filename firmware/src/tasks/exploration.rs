@@ -552,9 +552,19 @@ impl Exploration {
             .filter(|(p, _)| (p[0] - pose[0]).hypot(p[1] - pose[1]) < RETRACE_HEADWAY_M);
         let next = points[1.min(n - 1)];
         let first_leg = (next[1] - pose[1]).atan2(next[0] - pose[0]);
+        // The track's own way, from its first point to the next: the leg
+        // from the pose turns with every jump of the pose (at garage seed
+        // 2's roof rim a loop closure moved it 0.4 m, the first leg read
+        // 60° off the yaw, the rover drove forward, turned into the rim
+        // and tipped). The first leg only when the track has one point.
+        let track_way = if n >= 3 {
+            (points[2][1] - next[1]).atan2(points[2][0] - next[0])
+        } else {
+            first_leg
+        };
         let backward = match again_here {
             Some((_, b)) => !b,
-            None => self.last_stop == StopReason::LeavingMap as u8 && (yaw - first_leg).cos() < 0.0,
+            None => self.last_stop == StopReason::LeavingMap as u8 && (yaw - track_way).cos() < 0.0,
         };
         if again_here.is_none() {
             self.refused_here = 0;
@@ -587,6 +597,7 @@ impl Exploration {
             next_y = next[1],
             yaw_deg = yaw.to_degrees(),
             first_leg_deg = first_leg.to_degrees(),
+            track_way_deg = track_way.to_degrees(),
             last_stop = self.last_stop,
             backward,
             "retracing"
@@ -1062,7 +1073,7 @@ mod tests {
     #[test]
     fn a_rover_stopped_at_the_maps_edge_retraces_without_turning_round() {
         use crate::bus::WheelCommand;
-        let heading_after = |stop: StopReason, yaw: f64| {
+        let heading_after_at = |stop: StopReason, yaw: f64, at: [f64; 3]| {
             let mut e = exploration();
             let mut bus = Bus::new();
             // Out along x to 10 m.
@@ -1073,7 +1084,7 @@ mod tests {
             bus.slam.publish(
                 0,
                 SlamPose {
-                    position: [10.0, 0.0, 0.0],
+                    position: at,
                     orientation: [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()],
                     keyframes: 1,
                 },
@@ -1093,6 +1104,8 @@ mod tests {
             assert!(poses.iter().all(|q| q[0] <= 10.0 + 1e-3), "{poses:?}");
             poses[1][3]
         };
+        let heading_after =
+            |stop: StopReason, yaw: f64| heading_after_at(stop, yaw, [10.0, 0.0, 0.0]);
         // Blocked: back along the track, facing it (turning round first).
         assert!(heading_after(StopReason::Blocked, 0.0).abs() > 3.0);
         // At the map's edge: backing along it, facing the way it came.
@@ -1101,6 +1114,11 @@ mod tests {
         // forward, facing the way it faces still.
         let back = heading_after(StopReason::LeavingMap, std::f64::consts::PI);
         assert!(back.abs() > 3.0, "{back}");
+        // The pose jumped 0.7 m sideways (a loop closure) after the stop:
+        // the leg to the track's end point runs 60° right of the yaw, but
+        // the track runs back the other way: backing along it still.
+        let jumped = heading_after_at(StopReason::LeavingMap, 0.0, [9.6, 0.7, 0.0]);
+        assert!(jumped.abs() < 0.1, "{jumped}");
     }
 
     #[test]
