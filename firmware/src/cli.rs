@@ -391,7 +391,8 @@ pub struct SimArgs {
     #[arg(long)]
     pub route: bool,
     /// Write the SLAM keyframe poses (world frame, TUM format) here, and
-    /// the true poses at the same times beside it as NAME.truth.EXT.
+    /// beside it the odometry's poses at the same times as NAME.odom.EXT
+    /// and the true poses as NAME.truth.EXT.
     #[arg(long, value_name = "OUT.tum")]
     pub trajectory: Option<PathBuf>,
     /// Draw the explored map with the rover's track, from above and from

@@ -93,6 +93,10 @@ pub struct KeyframeTrajectory {
     /// Orientation, (w, x, y, z).
     pub orientation: [f64; 4],
     pub truth: Option<([f64; 3], [f64; 4])>,
+    /// The wheel/IMU odometry's pose at the keyframe, in the same frame:
+    /// what the scans corrected (on a garage's bare roof, where they see
+    /// only a plane, SLAM and odometry parted from the truth).
+    pub odometry: ([f64; 3], [f64; 4]),
 }
 
 pub fn figures(
@@ -144,6 +148,8 @@ pub fn figures(
     for (k, kf) in slam.keyframes().iter().enumerate() {
         let est = world_from_map * slam.keyframe_pose(k).to_isometry();
         let q = est.rotation.into_inner();
+        let odom = world_from_map * kf.odom.to_isometry();
+        let qo = odom.rotation.into_inner();
         let truth = truth
             .filter(|t| t.odom_origin.is_some())
             .and_then(|t| t.at(kf.stamp_ns));
@@ -152,6 +158,7 @@ pub fn figures(
             position: est.translation.vector.into(),
             orientation: [q.w, q.i, q.j, q.k],
             truth,
+            odometry: (odom.translation.vector.into(), [qo.w, qo.i, qo.j, qo.k]),
         });
         let Some((t, _)) = truth else { continue };
         let d = est.translation.vector - nalgebra::Vector3::from(t);
@@ -208,9 +215,9 @@ fn rigid_alignment(
 }
 
 /// Writes the keyframe trajectory in the TUM format (`time x y z qx qy qz
-/// qw`, seconds) to `path` and, where the truth is known, the true poses at
-/// the same times beside it (`NAME.truth.EXT`), ready for trajectory
-/// evaluation tools.
+/// qw`, seconds) to `path`, the odometry's poses at the same times beside
+/// it (`NAME.odom.EXT`) and, where the truth is known, the true poses
+/// (`NAME.truth.EXT`), ready for trajectory evaluation tools.
 pub fn write_tum(path: &std::path::Path, rows: &[KeyframeTrajectory]) -> std::io::Result<()> {
     use std::io::Write;
     let line = |w: &mut dyn Write, t: u64, p: [f64; 3], q: [f64; 4]| {
@@ -232,15 +239,23 @@ pub fn write_tum(path: &std::path::Path, rows: &[KeyframeTrajectory]) -> std::io
         line(&mut est, r.stamp_ns, r.position, r.orientation)?;
     }
     est.flush()?;
-    if rows.iter().any(|r| r.truth.is_some()) {
+    let beside = |kind: &str| {
         let stem = path
             .file_stem()
             .map_or("trajectory".into(), |s| s.to_string_lossy());
         let name = match path.extension() {
-            Some(e) => format!("{stem}.truth.{}", e.to_string_lossy()),
-            None => format!("{stem}.truth"),
+            Some(e) => format!("{stem}.{kind}.{}", e.to_string_lossy()),
+            None => format!("{stem}.{kind}"),
         };
-        let mut gt = std::io::BufWriter::new(std::fs::File::create(path.with_file_name(name))?);
+        path.with_file_name(name)
+    };
+    let mut odom = std::io::BufWriter::new(std::fs::File::create(beside("odom"))?);
+    for r in rows {
+        line(&mut odom, r.stamp_ns, r.odometry.0, r.odometry.1)?;
+    }
+    odom.flush()?;
+    if rows.iter().any(|r| r.truth.is_some()) {
+        let mut gt = std::io::BufWriter::new(std::fs::File::create(beside("truth"))?);
         for r in rows {
             if let Some((p, q)) = r.truth {
                 line(&mut gt, r.stamp_ns, p, q)?;

@@ -54,6 +54,21 @@ fn slam_tracks_the_tube_replays_and_shrugs_off_a_false_loop_closure() {
     // runs; the map must not move by more than the noise.
     let (a, b) = (read_tum(&clean), read_tum(&faulted));
     let truth = read_tum(&s.path("clean.truth.tum"));
+    // The odometry beside them: a pose at every keyframe's time, from the
+    // same start.
+    let odom = read_tum(&s.path("clean.odom.tum"));
+    assert_eq!(odom.len(), a.len(), "odometry rows");
+    assert!(
+        odom.iter().zip(&a).all(|(o, e)| o.0 == e.0),
+        "odometry times"
+    );
+    let start = (0..3)
+        .map(|k| (odom[0].1[k] - a[0].1[k]).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        start < 0.01,
+        "odometry starts {start} m from SLAM's first keyframe"
+    );
     let mut moved: f64 = 0.0;
     for ((ta, pa), (tb, pb)) in a.iter().zip(&b).take(8) {
         assert_eq!(ta, tb, "keyframe times before the injection");

@@ -176,6 +176,22 @@ pub struct LoopCheck {
     pub inlier_fraction: f64,
     pub iterations: u32,
     pub accepted: bool,
+    /// The alignment's information along its least constrained direction
+    /// of translation (the smallest eigenvalue of the Hessian's
+    /// translation block, as the factor weighs it), and that direction:
+    /// on a flat, featureless plane the scans slide over each other.
+    pub weakest_info: f64,
+    pub weakest_axis: [f64; 3],
+}
+
+/// The smallest eigenvalue of the translation block of `h` and its unit
+/// eigenvector.
+fn weakest_translation(h: &Matrix6<f64>) -> (f64, [f64; 3]) {
+    let t: Matrix3<f64> = h.fixed_view::<3, 3>(0, 0).into_owned();
+    let e = t.symmetric_eigen();
+    let i = e.eigenvalues.imin();
+    let v = e.eigenvectors.column(i);
+    (e.eigenvalues[i], [v[0], v[1], v[2]])
 }
 
 /// Why a loop closure from outside was refused.
@@ -819,6 +835,7 @@ impl GraphSlam {
                 a.inlier_fraction >= 0.3
             };
             if c.is_loop {
+                let weak = weakest_translation(&(a.hessian * self.p.gicp_information_scale));
                 self.last_loop_check = Some(LoopCheck {
                     older: c.keyframe,
                     newer: k,
@@ -826,6 +843,8 @@ impl GraphSlam {
                     inlier_fraction: a.inlier_fraction,
                     iterations: a.iterations,
                     accepted: ok,
+                    weakest_info: weak.0,
+                    weakest_axis: weak.1,
                 });
             }
             if !ok {
@@ -999,8 +1018,20 @@ fn on_another_level(a: &Vector3<f64>, b: &Vector3<f64>) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::{interleave_stride, on_another_level, OdometryScale};
-    use nalgebra::Vector3;
+    use super::{interleave_stride, on_another_level, weakest_translation, OdometryScale};
+    use nalgebra::{Matrix6, Vector3, Vector6};
+
+    #[test]
+    fn the_weakest_translation_is_the_direction_a_plane_leaves_free() {
+        // Translation well held along x and z, hardly along y; rotation
+        // entries large, which must not enter.
+        let mut h = Matrix6::from_diagonal(&Vector6::new(400.0, 0.5, 900.0, 1e5, 1e5, 1e5));
+        h[(0, 2)] = 30.0;
+        h[(2, 0)] = 30.0;
+        let (info, axis) = weakest_translation(&h);
+        assert!((info - 0.5).abs() < 1e-9, "{info}");
+        assert!((axis[1].abs() - 1.0).abs() < 1e-9, "{axis:?}");
+    }
 
     #[test]
     fn keyframes_over_each_other_are_on_other_levels_along_a_ramp_they_are_not() {

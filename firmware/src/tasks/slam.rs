@@ -333,6 +333,10 @@ impl Task<Bus> for SlamTask {
                         inlier_fraction = c.inlier_fraction,
                         iterations = c.iterations,
                         accepted = c.accepted,
+                        weakest_info = c.weakest_info,
+                        weakest_x = c.weakest_axis[0],
+                        weakest_y = c.weakest_axis[1],
+                        weakest_z = c.weakest_axis[2],
                         "loop candidate"
                     );
                 }
