@@ -297,6 +297,7 @@ pub struct SlamConfig {
     pub loop_min_gap: usize,
     pub refine_distance_m: f64,
     pub refine_mutual: bool,
+    pub min_surface_share: f64,
     pub loop_verify_distance_m: f64,
     pub loop_max_fitness_m: f64,
     pub loop_min_inlier_fraction: f64,
@@ -330,6 +331,7 @@ impl Default for SlamConfig {
             loop_min_gap: p.loop_min_gap,
             refine_distance_m: p.refine_distance_m,
             refine_mutual: p.refine_mutual,
+            min_surface_share: p.min_surface_share,
             loop_verify_distance_m: p.loop_verify_distance_m,
             loop_max_fitness_m: p.loop_max_fitness_m,
             loop_min_inlier_fraction: p.loop_min_inlier_fraction,
@@ -361,6 +363,7 @@ impl SlamConfig {
             loop_min_gap: self.loop_min_gap,
             refine_distance_m: self.refine_distance_m,
             refine_mutual: self.refine_mutual,
+            min_surface_share: self.min_surface_share,
             loop_verify_distance_m: self.loop_verify_distance_m,
             loop_max_fitness_m: self.loop_max_fitness_m,
             loop_min_inlier_fraction: self.loop_min_inlier_fraction,
@@ -853,6 +856,13 @@ impl Config {
                 });
             }
         }
+        let m = sl.min_surface_share;
+        if !(0.0..=1.0).contains(&m) {
+            return Err(ConfigError::Invalid {
+                key: "slam.min_surface_share".into(),
+                why: format!("{m} is not a share from 0 to 1"),
+            });
+        }
         let h = &self.health;
         range(
             "health.imu_timeout_ms",
@@ -989,5 +999,11 @@ mod tests {
         assert!(e.to_string().contains("tasks.control.policy"), "{e}");
         let e = Config::from_toml("[rover]\nwheel_radius_m = -1.0\n").expect_err("refused");
         assert!(e.to_string().contains("rover.wheel_radius_m"), "{e}");
+        for share in ["1.5", "-0.1", "nan"] {
+            let e = Config::from_toml(&format!("[slam]\nmin_surface_share = {share}\n"))
+                .expect_err("refused");
+            assert!(e.to_string().contains("slam.min_surface_share"), "{e}");
+        }
+        assert!(Config::from_toml("[slam]\nmin_surface_share = 0.0\n").is_ok());
     }
 }

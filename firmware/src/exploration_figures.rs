@@ -32,6 +32,12 @@ pub struct ExplorationFigures {
     pub home_error_m: Option<f64>,
     pub distance_m: Option<f64>,
     pub collisions: Option<u64>,
+    /// Simulation only: the rover's falls (it sank faster than 3 m/s,
+    /// about half a metre of free fall), the worst one's height, m, and
+    /// whether one (1 m or more) wrecked it, leaving it where it struck.
+    pub falls: Option<u64>,
+    pub worst_fall_m: Option<f64>,
+    pub wrecked: Option<bool>,
     /// Highest and lowest the rover went over and under home (SLAM), m:
     /// the levels reached in a multi-level world.
     pub climbed_m: f64,
@@ -223,6 +229,7 @@ pub fn internal_sim(e: &Exploration, minor_frame_us: u32) -> Option<InternalSimF
         "no_ground",
         "no_way_back",
         "overhang",
+        "fell",
     ];
     Some(InternalSimFigures {
         validations: c.validations,

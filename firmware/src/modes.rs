@@ -228,7 +228,7 @@ fn print_summary(r: &MissionResult) {
         let opt =
             |v: Option<f64>, unit: &str| v.map_or("-".to_string(), |v| format!("{v:.2}{unit}"));
         eprintln!(
-            "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {:.1} m up and {:.1} m down, {} collisions",
+            "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {:.1} m up and {:.1} m down, {} collisions{}",
             e.state,
             e.return_reason.as_ref().map_or(String::new(), |r| format!(" ({r})")),
             e.explored_area_m2,
@@ -240,6 +240,14 @@ fn print_summary(r: &MissionResult) {
             e.climbed_m,
             e.descended_m,
             e.collisions.map_or("-".to_string(), |c| c.to_string()),
+            match (e.falls, e.worst_fall_m, e.wrecked) {
+                (Some(n), Some(h), Some(w)) if n > 0 => format!(
+                    ", {n} fall{} (worst {h:.1} m{})",
+                    if n == 1 { "" } else { "s" },
+                    if w { ", wrecked" } else { "" }
+                ),
+                _ => String::new(),
+            },
         );
     }
     if let Some(s) = &r.internal_sim {
@@ -382,7 +390,19 @@ pub(crate) fn simulate(
     )?;
     drop(hw);
     finish_maps(cfg, out, &mut result)?;
-    exploration_truth(cfg, &world, sim_hw.collisions(), &mut result)?;
+    let (falls, worst_fall_m, wrecked) = sim_hw.falls();
+    if wrecked {
+        tracing::warn!(
+            "the rover fell {worst_fall_m:.1} m and was wrecked; it lay there to the end"
+        );
+    }
+    let strikes = Strikes {
+        collisions: sim_hw.collisions(),
+        falls,
+        worst_fall_m,
+        wrecked,
+    };
+    exploration_truth(cfg, &world, &strikes, &mut result)?;
     Ok(result)
 }
 
@@ -424,19 +444,31 @@ fn plot_data(r: &MissionResult) -> crate::plot::PlotData {
     d
 }
 
-/// The exploration's ground-truth figures: the chassis' strikes, and the
+/// What the world's physics saw the rover strike: walls and ceiling
+/// (collisions), and the ground after a fall.
+struct Strikes {
+    collisions: u64,
+    falls: u64,
+    worst_fall_m: f64,
+    wrecked: bool,
+}
+
+/// The exploration's ground-truth figures: the rover's strikes, and the
 /// fraction of the world's reachable floor that the explored map covers.
 fn exploration_truth(
     cfg: &Config,
     world: &speleo_hal::world::World,
-    collisions: u64,
+    strikes: &Strikes,
     r: &mut MissionResult,
 ) -> Result<(), Error> {
     use crate::exploration_figures as ef;
     let Some(f) = r.exploration.as_mut() else {
         return Ok(());
     };
-    f.collisions = Some(collisions);
+    f.collisions = Some(strikes.collisions);
+    f.falls = Some(strikes.falls);
+    f.worst_fall_m = Some(strikes.worst_fall_m);
+    f.wrecked = Some(strikes.wrecked);
     let (Some(explored), Some((origin, heading))) = (&r.explored, r.world_from_map) else {
         return Ok(());
     };

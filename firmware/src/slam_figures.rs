@@ -49,6 +49,9 @@ pub struct SlamFigures {
     pub loop_candidates_rejected: u64,
     pub registrations: u64,
     pub registrations_rejected: u64,
+    /// Registrations that kept the odometry's guess along a direction
+    /// their surfaces did not hold (a bare plane's x, y and yaw).
+    pub registrations_unheld: u64,
     pub lm_iterations: u64,
     pub grouped_keyframes: u64,
     /// Loop closures added from outside the pipeline (injected faults).
@@ -95,7 +98,7 @@ pub struct KeyframeTrajectory {
     pub truth: Option<([f64; 3], [f64; 4])>,
     /// The wheel/IMU odometry's pose at the keyframe, in the same frame:
     /// what the scans corrected (on a garage's bare roof, where they see
-    /// only a plane, SLAM and odometry parted from the truth).
+    /// only a plane, SLAM parted from the odometry, which read the truth).
     pub odometry: ([f64; 3], [f64; 4]),
 }
 
@@ -113,6 +116,7 @@ pub fn figures(
         loop_candidates_rejected: s.loop_candidates_rejected,
         registrations: s.registrations,
         registrations_rejected: s.registrations_rejected,
+        registrations_unheld: s.registrations_unheld,
         lm_iterations: s.lm_iterations,
         grouped_keyframes: s.grouped,
         external_loop_closures: s.external_loop_closures,

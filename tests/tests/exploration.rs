@@ -45,6 +45,8 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
     assert!(f("coverage_fraction") >= 0.85, "{e}");
     assert!(f("home_error_m") <= 0.5, "{e}");
     assert_eq!(e["collisions"], 0, "{e}");
+    assert_eq!(e["falls"], 0, "{e}");
+    assert_eq!(e["wrecked"], false, "{e}");
     // It ended the mission itself, well before the 900 s allowed.
     assert!(
         r["sim_time_s"].as_f64().unwrap_or(f64::NAN) < 800.0,

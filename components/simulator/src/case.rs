@@ -103,6 +103,7 @@ fn outcome_code(o: Option<Outcome>) -> u8 {
         Some(Outcome::NoGround) => 6,
         Some(Outcome::NoWayBack) => 7,
         Some(Outcome::Overhang) => 8,
+        Some(Outcome::Fell) => 9,
     }
 }
 
@@ -117,6 +118,7 @@ fn outcome_from(c: u8) -> Result<Option<Outcome>, CaseError> {
         6 => Outcome::NoGround,
         7 => Outcome::NoWayBack,
         8 => Outcome::Overhang,
+        9 => Outcome::Fell,
         _ => return Err(CaseError::Outcome(c)),
     }))
 }

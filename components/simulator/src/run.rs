@@ -54,6 +54,10 @@ pub enum Outcome {
     /// The goal was reached with a wheel over an edge: no ground under
     /// its hub within its radius and `overhang_depth_m`.
     Overhang,
+    /// The rover fell: sank faster than a drive down a step allows
+    /// (`speleo_hal::sim::physics::FALL_SPEED_MPS`, about half a metre of
+    /// free fall), off a ledge the map shows as a slope or not at all.
+    Fell,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -712,6 +716,9 @@ impl InternalSim {
         // The judgement.
         if tilt > self.p.tip_over_deg {
             return self.verdict_now(Outcome::TippedOver);
+        }
+        if rover.falls > 0 {
+            return self.verdict_now(Outcome::Fell);
         }
         if !s.position.iter().all(|v| v.is_finite()) || s.position[2] < self.terrain.lo[2] - 1.0 {
             return self.verdict_now(Outcome::NoGround);

@@ -8,7 +8,9 @@
 //! clouds are `real_pair*/prepare_both_and_align`; `small_gicp_reference.py`
 //! beside this file times small_gicp on the real pair (medians on the
 //! 2-core machine, same session: 34.4 ms here against its 52.3 ms, one
-//! cloud prepared in 13.9 ms against its 20.1 ms).
+//! cloud prepared in 13.9 ms against its 20.1 ms). `align` against
+//! `align_with_surface_information` is the cost of the degeneracy check's
+//! sums.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
@@ -94,6 +96,15 @@ fn bench_pair(c: &mut Criterion, name: &str, src: &[[f64; 3]], tgt: &[[f64; 3]])
     s.prepare(src.iter().copied(), VOXEL_M);
     g.bench_function("align", |b| {
         b.iter(|| align(&s, &t, &Isometry3::identity(), &params))
+    });
+    // The degeneracy check's sums (`GicpParams::surface_information`),
+    // against `align` above in the same run.
+    let judged = GicpParams {
+        surface_information: true,
+        ..params
+    };
+    g.bench_function("align_with_surface_information", |b| {
+        b.iter(|| align(&s, &t, &Isometry3::identity(), &judged))
     });
     g.finish();
 }

@@ -16,6 +16,7 @@ use nalgebra::{Matrix3, Matrix6, Vector3};
 
 use crate::factors::{Factor, Rigid, Robust, Var, VarKind};
 use crate::lie::Pose;
+use crate::registration::degeneracy::keep_guess_where_unheld;
 use crate::registration::gicp::{Aligner, Alignment, GicpParams, PreparedCloud};
 use crate::solver::{LmParams, Solver, Step};
 
@@ -65,6 +66,13 @@ pub struct SlamParams {
     pub refine_distance_m: f64,
     /// ...keeping only mutual nearest neighbours (`GicpParams::mutual`).
     pub refine_mutual: bool,
+    /// A registration's directions where the surfaces' normals carry less
+    /// than this share of the information keep the guess and weigh
+    /// nothing in the graph (`registration::degeneracy`); 0: off, the
+    /// default. On a garage's bare roof the scans read the motion as none
+    /// (shares 0.23 at most, the lava tube's axis 0.60 at least); turned
+    /// on, it changed the missions' paths, see the README.
+    pub min_surface_share: f64,
     /// Loops are refined within this distance, and verified on it...
     pub loop_verify_distance_m: f64,
     /// ...and accepted when its inlier RMSE is below this...
@@ -123,6 +131,7 @@ impl Default for SlamParams {
             loop_min_gap: 25,
             refine_distance_m: 0.25,
             refine_mutual: true,
+            min_surface_share: 0.0,
             loop_verify_distance_m: 0.4,
             loop_max_fitness_m: 0.18,
             loop_min_inlier_fraction: 0.4,
@@ -184,6 +193,19 @@ pub struct LoopCheck {
     pub weakest_axis: [f64; 3],
 }
 
+/// A registration that kept the guess along directions its surfaces did
+/// not hold (see [`SlamParams::min_surface_share`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Unheld {
+    /// The keyframe registered to (the new one is the next after the
+    /// last), and the number of such directions.
+    pub target: usize,
+    pub directions: usize,
+    /// The smallest share of a direction's information that the normals
+    /// carried (see `registration::degeneracy::surface_shares`).
+    pub surface_share: f64,
+}
+
 /// The smallest eigenvalue of the translation block of `h` and its unit
 /// eigenvector.
 fn weakest_translation(h: &Matrix6<f64>) -> (f64, [f64; 3]) {
@@ -231,6 +253,9 @@ pub struct SlamStats {
     pub grouped: u64,
     pub registrations: u64,
     pub registrations_rejected: u64,
+    /// Registrations that kept the guess along some direction their
+    /// surfaces did not hold (`SlamParams::min_surface_share`).
+    pub registrations_unheld: u64,
     pub loop_closures: u64,
     pub loop_candidates_rejected: u64,
     pub lm_iterations: u64,
@@ -288,6 +313,8 @@ struct Candidate {
     /// fitness and overlap then decide).
     refining: bool,
     result: Option<Alignment>,
+    /// Some direction kept the guess (see `keep_guess_where_unheld`).
+    unheld: bool,
 }
 
 const MAX_CANDIDATES: usize = 8;
@@ -375,6 +402,7 @@ pub struct GraphSlam {
     stats: SlamStats,
     loop_closures: Vec<(usize, usize)>,
     last_loop_check: Option<LoopCheck>,
+    last_unheld: Option<Unheld>,
     odometry_scale: OdometryScale,
 }
 
@@ -403,6 +431,7 @@ impl GraphSlam {
             stats: SlamStats::default(),
             loop_closures: Vec::with_capacity(cap),
             last_loop_check: None,
+            last_unheld: None,
             odometry_scale: OdometryScale::default(),
             p,
         }
@@ -443,6 +472,11 @@ impl GraphSlam {
     /// How the latest loop candidate fared.
     pub fn last_loop_check(&self) -> Option<LoopCheck> {
         self.last_loop_check
+    }
+
+    /// The latest registration that kept the guess somewhere.
+    pub fn last_unheld(&self) -> Option<Unheld> {
+        self.last_unheld
     }
 
     /// The IMU-to-LiDAR bias rotation (identity until estimated).
@@ -634,6 +668,7 @@ impl GraphSlam {
             is_loop: false,
             refining: false,
             result: None,
+            unheld: false,
         });
         let mut near: HVec<(f64, usize), 64> = HVec::new();
         let mut best_loop: Option<(f64, usize)> = None;
@@ -658,6 +693,7 @@ impl GraphSlam {
                 is_loop: false,
                 refining: false,
                 result: None,
+                unheld: false,
             });
         }
         if let Some((_, k)) = best_loop {
@@ -666,6 +702,7 @@ impl GraphSlam {
                 is_loop: true,
                 refining: false,
                 result: None,
+                unheld: false,
             });
         }
         self.phase = Phase::Register(0);
@@ -734,6 +771,9 @@ impl GraphSlam {
             GicpParams {
                 max_correspondence_m: reach,
                 mutual,
+                // Only the refined alignment is judged (and only when the
+                // check is on): the sums cost three 3x3 products a pair.
+                surface_information: self.p.min_surface_share > 0.0,
                 ..self.p.gicp
             }
         } else {
@@ -743,11 +783,23 @@ impl GraphSlam {
         if !aligner.step(&src[0], &rest[slot - 1], &params, budget) {
             return;
         }
-        let result = aligner.result();
+        let mut result = aligner.result();
         if !refining {
             self.candidates[i].refining = true;
             self.aligner = Some(Aligner::new(&result.transform));
             return;
+        }
+        // The guess the wide pass started from: what unheld directions keep.
+        let (directions, share) =
+            keep_guess_where_unheld(&mut result, &init, self.p.min_surface_share);
+        if directions > 0 {
+            self.stats.registrations_unheld += 1;
+            self.candidates[i].unheld = true;
+            self.last_unheld = Some(Unheld {
+                target: k,
+                directions,
+                surface_share: share,
+            });
         }
         self.candidates[i].result = Some(result);
         self.aligner = None;
@@ -863,8 +915,11 @@ impl GraphSlam {
             if c.keyframe + 1 == k {
                 kf.registration = Some(self.factors.len());
                 let odometry = self.keyframes[k - 1].odom.between(&kf.odom);
-                self.odometry_scale
-                    .add(a.transform.translation.vector.norm(), odometry.t.norm());
+                // Where the scans kept the guess they say nothing of slip.
+                if !c.unheld {
+                    self.odometry_scale
+                        .add(a.transform.translation.vector.norm(), odometry.t.norm());
+                }
             }
             self.factors.push(Factor::Between {
                 i: c.keyframe + 1,

@@ -55,11 +55,11 @@ pub struct ExplorationCounters {
     pub rims: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground,
-    /// no way back).
+    /// no way back, overhang, fall).
     pub validations: u64,
     pub validated: u64,
     pub rejected_by_sim: u64,
-    pub sim_outcomes: [u64; 7],
+    pub sim_outcomes: [u64; 8],
     pub sim_physics_steps: u64,
     pub sim_triangles_max: u64,
     /// Refused plans whose first part, the part the simulated rover drove
@@ -700,7 +700,10 @@ impl Exploration {
     /// went down the ramp's side to 30 degrees of tilt, and no plan moved
     /// the rover from there.
     pub fn back_out_passes(outcome: Outcome) -> bool {
-        !matches!(outcome, Outcome::TippedOver | Outcome::NoGround)
+        !matches!(
+            outcome,
+            Outcome::TippedOver | Outcome::NoGround | Outcome::Fell
+        )
     }
 
     /// The back-out, passed or not validated, is driven as plan `query`.
@@ -836,6 +839,7 @@ impl Exploration {
             Outcome::NoGround => 4,
             Outcome::NoWayBack => 5,
             Outcome::Overhang => 6,
+            Outcome::Fell => 7,
         };
         self.counters.rejected_by_sim += 1;
         self.counters.sim_outcomes[k] += 1;

@@ -1012,9 +1012,12 @@ impl PlannerTask {
         let at = self.query.order[self.query.tried].1;
         if ex.mode() == Mode::Exploring {
             ex.explorer.reject([at[0], at[1]]);
-            // A tip-over's run-up is no ground to stop on; a plan without
-            // a way back was driven whole.
-            if !matches!(v.outcome, Outcome::TippedOver | Outcome::NoWayBack) {
+            // A tip-over's or a fall's run-up is no ground to stop on; a
+            // plan without a way back was driven whole.
+            if !matches!(
+                v.outcome,
+                Outcome::TippedOver | Outcome::Fell | Outcome::NoWayBack
+            ) {
                 if let Some(plan) = bus.plan.get() {
                     ex.offer_partial(&plan.value.poses, at);
                 }

@@ -292,6 +292,7 @@ impl Task<Bus> for SlamTask {
             self.inject_due_loop();
             let checks =
                 self.slam.stats().loop_closures + self.slam.stats().loop_candidates_rejected;
+            let unheld = self.slam.stats().registrations_unheld;
             // The clock is a system call: read only for the debug log.
             let timed = tracing::enabled!(tracing::Level::DEBUG);
             let (work, cpu0) = (self.slam.work(), if timed { thread_cpu_ns() } else { 0 });
@@ -324,6 +325,17 @@ impl Task<Bus> for SlamTask {
             }
             self.poses_stale = true;
             let s = self.slam.stats();
+            if s.registrations_unheld != unheld {
+                if let Some(u) = self.slam.last_unheld() {
+                    tracing::debug!(
+                        keyframe = self.slam.keyframes().len(),
+                        target = u.target,
+                        directions = u.directions,
+                        surface_share = u.surface_share,
+                        "registration kept the guess"
+                    );
+                }
+            }
             if s.loop_closures + s.loop_candidates_rejected != checks {
                 if let Some(c) = self.slam.last_loop_check() {
                     tracing::debug!(

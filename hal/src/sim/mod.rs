@@ -185,6 +185,16 @@ impl SimHardware {
         }
     }
 
+    /// Times the rover fell (sank faster than
+    /// [`physics::FALL_SPEED_MPS`]), the worst fall's height, m, and
+    /// whether a fall wrecked it; no falls for the kinematic rover.
+    pub fn falls(&self) -> (u64, f64, bool) {
+        match &self.motion {
+            Motion::Kinematic(_) => (0, 0.0, false),
+            Motion::Physics(r) => (r.falls, r.worst_fall_m, r.wrecked),
+        }
+    }
+
     /// A handle that follows the true pose after every `advance_to`.
     pub fn truth_probe(&self) -> TruthProbe {
         self.truth.clone()

@@ -85,6 +85,9 @@ pub struct GicpParams {
     /// target's last points, which have nearer partners of their own:
     /// the check drops those pairs, which pull the motion short.
     pub mutual: bool,
+    /// Also sum [`Alignment::plane_information`] (three 3x3 products more
+    /// per pair), for `registration::degeneracy`.
+    pub surface_information: bool,
 }
 
 impl Default for GicpParams {
@@ -97,6 +100,7 @@ impl Default for GicpParams {
             kernel: Kernel::None,
             damping: 1e-3,
             mutual: false,
+            surface_information: false,
         }
     }
 }
@@ -250,11 +254,21 @@ pub struct Alignment {
     /// iteration's correspondences, i.e. at most one converged update
     /// (below the thresholds) before `transform`. Zero without inliers.
     pub hessian: Matrix6<f64>,
+    /// The part of `hessian` the surfaces' normals carry: the same sum with
+    /// each pair's information reduced to its component along the target's
+    /// normal (`(n^T W n) n n^T`). GICP's regularised covariances keep a
+    /// weight of 1/2 in the plane of every patch, which on a bare plane
+    /// pairs each LiDAR ring with itself and reads the motion as zero,
+    /// confidently: along those directions this carries (almost) none of
+    /// the Hessian's information, where the surfaces hold it nearly all.
+    /// `None` unless asked for (`GicpParams::surface_information`).
+    pub plane_information: Option<Matrix6<f64>>,
 }
 
 /// One pass over the source: nearest neighbours and the normal equations.
 struct Linearization {
     h: Matrix6<f64>,
+    hn: Matrix6<f64>,
     b: Vector6<f64>,
     cost: f64,
     inliers: usize,
@@ -303,6 +317,10 @@ struct Accumulator {
     htt: Matrix3<f64>,
     htp: Matrix3<f64>,
     hpp: Matrix3<f64>,
+    /// The normals-only sums (see [`Alignment::plane_information`]).
+    ntt: Matrix3<f64>,
+    ntp: Matrix3<f64>,
+    npp: Matrix3<f64>,
     bt: Vector3<f64>,
     bp: Vector3<f64>,
     cost: f64,
@@ -321,6 +339,9 @@ impl Accumulator {
             htt: Matrix3::zeros(),
             htp: Matrix3::zeros(),
             hpp: Matrix3::zeros(),
+            ntt: Matrix3::zeros(),
+            ntp: Matrix3::zeros(),
+            npp: Matrix3::zeros(),
             bt: Vector3::zeros(),
             bp: Vector3::zeros(),
             cost: 0.0,
@@ -332,23 +353,30 @@ impl Accumulator {
     }
 
     fn finish(&self) -> Linearization {
-        let mut h = Matrix6::zeros();
-        h.fixed_view_mut::<3, 3>(0, 0).copy_from(&self.htt);
-        h.fixed_view_mut::<3, 3>(0, 3).copy_from(&self.htp);
-        h.fixed_view_mut::<3, 3>(3, 0)
-            .copy_from(&self.htp.transpose());
-        h.fixed_view_mut::<3, 3>(3, 3).copy_from(&self.hpp);
+        let h = symmetric_from_blocks(&self.htt, &self.htp, &self.hpp);
+        let hn = symmetric_from_blocks(&self.ntt, &self.ntp, &self.npp);
         let mut b = Vector6::zeros();
         b.fixed_rows_mut::<3>(0).copy_from(&self.bt);
         b.fixed_rows_mut::<3>(3).copy_from(&self.bp);
         Linearization {
             h,
+            hn,
             b,
             cost: 0.5 * self.cost,
             inliers: self.inliers,
             sum_dist_sq: self.sum_dist_sq,
         }
     }
+}
+
+/// The symmetric 6x6 `[tt tp; tp^T pp]`.
+fn symmetric_from_blocks(tt: &Matrix3<f64>, tp: &Matrix3<f64>, pp: &Matrix3<f64>) -> Matrix6<f64> {
+    let mut h = Matrix6::zeros();
+    h.fixed_view_mut::<3, 3>(0, 0).copy_from(tt);
+    h.fixed_view_mut::<3, 3>(0, 3).copy_from(tp);
+    h.fixed_view_mut::<3, 3>(3, 0).copy_from(&tp.transpose());
+    h.fixed_view_mut::<3, 3>(3, 3).copy_from(pp);
+    h
 }
 
 /// Nearest neighbours and the (reweighted) normal equations at `tf`.
@@ -447,6 +475,16 @@ fn accumulate(
         acc.hpp -= ph * kwp;
         acc.bt += we * k;
         acc.bp += ph * we * k;
+        if params.surface_information {
+            // The part of k W along the target's normal n: k (n^T W n) n n^T,
+            // with n n^T = (I - C_t) / (1 - eps) in the source frame.
+            let nn = rt * (Matrix3::identity() - tcov[j]) * rm * (1.0 / (1.0 - PLANE_EPSILON));
+            let normal = nn * (k * nn.component_mul(&w).sum());
+            let normal_p = normal * ph;
+            acc.ntt += normal;
+            acc.ntp -= normal_p;
+            acc.npp -= ph * normal_p;
+        }
     }
     acc.next = end;
     end == n
@@ -516,6 +554,7 @@ impl Aligner {
                 fitness: 0.0,
                 inlier_fraction: 0.0,
                 hessian: Matrix6::zeros(),
+                plane_information: None,
             },
             acc: Accumulator::new(),
             done: false,
@@ -573,6 +612,7 @@ impl Aligner {
         };
         out.inlier_fraction = lin.inliers as f64 / source_len as f64;
         out.hessian = lin.h;
+        out.plane_information = params.surface_information.then_some(lin.hn);
         if lin.inliers == 0 {
             return true;
         }

@@ -8,6 +8,7 @@
 //! one thread, with bit-identical results for identical inputs.
 
 pub mod covariance;
+pub mod degeneracy;
 pub mod gicp;
 pub mod kdtree;
 pub mod voxel;
