@@ -562,11 +562,11 @@ pub fn run<C: FrameClock>(
     accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
     loop {
         // An exploration that is home, or cannot move any more, ends the
-        // mission.
+        // mission; so does a simulated rover wrecked in a fall.
         let finished = matches!(
             bus.exploration.phase,
             crate::bus::ExplorationPhase::Finished | crate::bus::ExplorationPhase::Stranded
-        );
+        ) || hw.borrow().world_over();
         if total.is_some_and(|n| exec.frames_run() >= n)
             || m.stop.load(Ordering::Relaxed)
             || finished

@@ -393,7 +393,7 @@ pub(crate) fn simulate(
     let (falls, worst_fall_m, wrecked) = sim_hw.falls();
     if wrecked {
         tracing::warn!(
-            "the rover fell {worst_fall_m:.1} m and was wrecked; it lay there to the end"
+            "the rover fell {worst_fall_m:.1} m and was wrecked: the mission ended there"
         );
     }
     let strikes = Strikes {

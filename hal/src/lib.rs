@@ -132,6 +132,11 @@ pub trait Hardware {
     /// what `advance_to(next_ns)` alone would. Inputs stay unseen until
     /// polled after `advance_to`.
     fn look_ahead(&mut self, _next_ns: u64) {}
+    /// Simulated hardware whose rover can do nothing more (wrecked in a
+    /// fall): the mission ends. Real and replayed hardware never are.
+    fn world_over(&self) -> bool {
+        false
+    }
     fn lidar(&mut self) -> &mut dyn LidarSource;
     fn imu(&mut self) -> &mut dyn ImuPort;
     fn can(&mut self) -> &mut dyn CanBus;

@@ -58,3 +58,46 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
         .map(|m| m.len() > 1000)
         .unwrap_or(false));
 }
+
+/// A rover let go 3 m over the flat world's ground falls, is wrecked, and
+/// the mission ends there, with the fall in the report.
+#[test]
+fn a_rover_wrecked_in_a_fall_ends_the_mission_and_the_report_says_so() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let config = dir.path().join("drop.toml");
+    let report = dir.path().join("r.json");
+    std::fs::write(
+        &config,
+        "[exploration]\nenabled = true\n[sim]\nstart = [0.0, 0.0, 3.0, 0.0]\n",
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    modes::sim(
+        SimArgs {
+            world: Some("flat".into()),
+            seed: Some(1),
+            duration: Some(60.0),
+            config: Some(config),
+            route: false,
+            trajectory: None,
+            plot: None,
+            faults: Vec::new(),
+            dump_validations: None,
+            out: Outputs {
+                report: Some(report.clone()),
+                ..Outputs::default()
+            },
+        },
+        false,
+    )
+    .unwrap_or_else(|e| panic!("sim failed: {e}"));
+    let text = std::fs::read_to_string(&report).unwrap_or_else(|e| panic!("{e}"));
+    let r: serde_json::Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"));
+    let e = &r["exploration"];
+    assert_eq!(e["falls"], 1, "{e}");
+    assert_eq!(e["wrecked"], true, "{e}");
+    let h = e["worst_fall_m"].as_f64().unwrap_or(f64::NAN);
+    assert!((h - 3.0).abs() < 0.2, "{e}");
+    // Ended at the strike (0.8 s of free fall), not at the 60 s allowed.
+    let t = r["sim_time_s"].as_f64().unwrap_or(f64::NAN);
+    assert!(t < 2.0, "{t}");
+}

@@ -182,9 +182,9 @@ pub struct SafetyMonitor {
 /// A rover already tilted beyond the limit (stopped there) may move as
 /// long as the tilt does not grow by more than this, deg: it can only get
 /// off the slope by moving.
-const TILT_GROWTH_DEG: f64 = 2.0;
+pub const TILT_GROWTH_DEG: f64 = 2.0;
 /// Beyond the tilt limit by this much, the rover does not move at all, deg.
-const TILT_HARD_MARGIN_DEG: f64 = 12.0;
+pub const TILT_HARD_MARGIN_DEG: f64 = 12.0;
 
 impl SafetyMonitor {
     pub fn new(p: SafetyParams) -> Self {

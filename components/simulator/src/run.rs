@@ -181,6 +181,11 @@ pub struct InternalSim {
     /// Stuck detection: when, where and at which heading progress was
     /// last seen (turning on the spot is progress too).
     anchor: (f64, [f64; 2], f64),
+    /// Tilt past this is a tip-over, deg: `tip_over_deg`, or for a rover
+    /// that starts beyond it, as the safety monitor allows such a start.
+    tilt_limit_deg: f64,
+    /// The run started past `tip_over_deg`.
+    tilted_start: bool,
     prediction: Prediction,
     scratch: Vec<[f64; 3]>,
     verdict: Option<Verdict>,
@@ -209,6 +214,8 @@ impl InternalSim {
             bounds: ([0.0; 3], [0.0; 3]),
             lowest_z: 0.0,
             anchor: (0.0, [0.0; 2], 0.0),
+            tilt_limit_deg: p.tip_over_deg,
+            tilted_start: false,
             prediction: Prediction::with_capacity(),
             scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
             verdict: None,
@@ -266,6 +273,8 @@ impl InternalSim {
         self.way_back = false;
         self.returning = None;
         self.step = 0;
+        self.tilt_limit_deg = self.p.tip_over_deg;
+        self.tilted_start = false;
         self.targets = [0.0; 4];
         self.command = (0.0, 0.0);
         self.limiter.halt();
@@ -714,7 +723,15 @@ impl InternalSim {
         self.step += 1;
         self.counters.physics_steps += 1;
         // The judgement.
-        if tilt > self.p.tip_over_deg {
+        if self.step == 1 && tilt > self.p.tip_over_deg {
+            // Settling on a steep slope rocks the model by a few degrees:
+            // the start's tilt is taken once it has settled.
+            self.tilt_limit_deg = tilt_limit(self.p.tip_over_deg, f64::INFINITY);
+            self.tilted_start = true;
+        } else if self.step == settle_steps && self.tilted_start {
+            self.tilt_limit_deg = tilt_limit(self.p.tip_over_deg, tilt);
+        }
+        if tilt > self.tilt_limit_deg {
             return self.verdict_now(Outcome::TippedOver);
         }
         if rover.falls > 0 {
@@ -821,4 +838,21 @@ fn segment_distance(c: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
         0.0
     };
     (c[0] - a[0] - t * dx).hypot(c[1] - a[1] - t * dy)
+}
+
+/// The tilt past which a run that starts at `start_deg` has tipped over:
+/// `limit_deg`, or, when it starts beyond that (the safety monitor
+/// stopped the real rover there), as the safety monitor lets such a rover
+/// move: while the tilt grows by no more than
+/// [`speleo_control::safety::TILT_GROWTH_DEG`], and never past the hard
+/// margin. Without it every way off a slope read as a tip-over at once,
+/// and the lava tube's rover, stopped at 30.1 degrees on the muddy
+/// entrance, was stranded there.
+fn tilt_limit(limit_deg: f64, start_deg: f64) -> f64 {
+    use speleo_control::safety::{TILT_GROWTH_DEG, TILT_HARD_MARGIN_DEG};
+    if start_deg > limit_deg {
+        (start_deg + TILT_GROWTH_DEG).min(limit_deg + TILT_HARD_MARGIN_DEG)
+    } else {
+        limit_deg
+    }
 }

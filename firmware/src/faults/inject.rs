@@ -132,6 +132,9 @@ impl<H: FaultTarget> Hardware for FaultyHardware<'_, H> {
             self.inner.look_ahead(next_ns);
         }
     }
+    fn world_over(&self) -> bool {
+        self.inner.world_over()
+    }
     fn lidar(&mut self) -> &mut dyn LidarSource {
         self
     }

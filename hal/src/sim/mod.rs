@@ -257,6 +257,9 @@ impl Hardware for SimHardware {
             l.launch();
         }
     }
+    fn world_over(&self) -> bool {
+        self.falls().2
+    }
     fn lidar(&mut self) -> &mut dyn LidarSource {
         &mut self.lidar
     }
