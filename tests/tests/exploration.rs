@@ -4,28 +4,29 @@
 //! few minutes in a release build, far longer in the debug test build, so
 //! it is ignored there and run with
 //! `cargo test --release -p speleo-tests --test exploration -- --ignored`
-//! (as `ci/test.sh` does).
+//! (as `ci/test.sh` does). Also, in a second: a rover wrecked in a fall
+//! ends its mission, and the report says so.
 
 use speleo_firmware::cli::{Outputs, SimArgs};
 use speleo_firmware::modes;
+use std::path::PathBuf;
 
-#[test]
-#[ignore = "a whole exploration: run in release (see the module documentation)"]
-fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
+/// `speleo sim` in `world` (seed 1) for at most `duration_s`, with the
+/// configuration `toml` (and a plot when asked): its report.
+fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let config = dir.path().join("explore.toml");
+    let config = dir.path().join("mission.toml");
     let report = dir.path().join("r.json");
-    let plot = dir.path().join("r.png");
-    std::fs::write(&config, "[exploration]\nenabled = true\n").unwrap_or_else(|e| panic!("{e}"));
+    std::fs::write(&config, toml).unwrap_or_else(|e| panic!("{e}"));
     modes::sim(
         SimArgs {
-            world: Some("short-tube".into()),
+            world: Some(world.into()),
             seed: Some(1),
-            duration: Some(900.0),
+            duration: Some(duration_s),
             config: Some(config),
             route: false,
             trajectory: None,
-            plot: Some(plot.clone()),
+            plot,
             faults: Vec::new(),
             dump_validations: None,
             out: Outputs {
@@ -37,7 +38,20 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
     )
     .unwrap_or_else(|e| panic!("sim failed: {e}"));
     let text = std::fs::read_to_string(&report).unwrap_or_else(|e| panic!("{e}"));
-    let r: serde_json::Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+#[ignore = "a whole exploration: run in release (see the module documentation)"]
+fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let plot = dir.path().join("r.png");
+    let r = mission(
+        "short-tube",
+        900.0,
+        "[exploration]\nenabled = true\n",
+        Some(plot.clone()),
+    );
     let e = &r["exploration"];
     let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
     assert_eq!(e["state"], "finished", "{e}");
@@ -63,35 +77,12 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
 /// the mission ends there, with the fall in the report.
 #[test]
 fn a_rover_wrecked_in_a_fall_ends_the_mission_and_the_report_says_so() {
-    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
-    let config = dir.path().join("drop.toml");
-    let report = dir.path().join("r.json");
-    std::fs::write(
-        &config,
+    let r = mission(
+        "flat",
+        60.0,
         "[exploration]\nenabled = true\n[sim]\nstart = [0.0, 0.0, 3.0, 0.0]\n",
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    modes::sim(
-        SimArgs {
-            world: Some("flat".into()),
-            seed: Some(1),
-            duration: Some(60.0),
-            config: Some(config),
-            route: false,
-            trajectory: None,
-            plot: None,
-            faults: Vec::new(),
-            dump_validations: None,
-            out: Outputs {
-                report: Some(report.clone()),
-                ..Outputs::default()
-            },
-        },
-        false,
-    )
-    .unwrap_or_else(|e| panic!("sim failed: {e}"));
-    let text = std::fs::read_to_string(&report).unwrap_or_else(|e| panic!("{e}"));
-    let r: serde_json::Value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"));
+        None,
+    );
     let e = &r["exploration"];
     assert_eq!(e["falls"], 1, "{e}");
     assert_eq!(e["wrecked"], true, "{e}");

@@ -3,6 +3,9 @@
 //! with two wheels over nothing: refused as an overhang, unless the
 //! check is off; a goal a body's width in from the rim passes.
 
+mod common;
+
+use common::run_to_verdict;
 use speleo_hal::world::{shapes::add_box, Mesh, Surface};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 
@@ -47,12 +50,7 @@ fn drive(y_end: f64, overhang_depth_m: f64) -> Verdict {
     let start = Stance::level(0.0, 0.0, p.base_height_m, 0.0);
     let mut sim = InternalSim::new(p).expect("sim");
     sim.begin_on(start, plan(y_end), roof());
-    for _ in 0..1_000_000 {
-        if let Some(v) = sim.step_without_clouds(50) {
-            return v;
-        }
-    }
-    panic!("no verdict");
+    run_to_verdict(&mut sim)
 }
 
 #[test]

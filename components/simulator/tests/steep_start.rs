@@ -4,6 +4,9 @@
 //! every plan from there a tip-over at once (the lava tube's rover,
 //! stopped at 30.1 degrees on the muddy entrance, was stranded so).
 
+mod common;
+
+use common::run_to_verdict;
 use speleo_hal::world::{shapes::add_hexahedron, Mesh, Surface};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 
@@ -69,12 +72,7 @@ fn drive_down(tip_over_deg: f64) -> Verdict {
         .collect();
     let mut sim = InternalSim::new(p).expect("sim");
     sim.begin_on(start, plan, slope());
-    for _ in 0..1_000_000 {
-        if let Some(v) = sim.step_without_clouds(50) {
-            return v;
-        }
-    }
-    panic!("no verdict");
+    run_to_verdict(&mut sim)
 }
 
 #[test]

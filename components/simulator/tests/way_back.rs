@@ -2,27 +2,11 @@
 //! climb back up reaches its goal, and is refused when its way back is
 //! asked for; down a step it can climb, it passes either way.
 
-use speleo_hal::world::{shapes::add_box, Mesh, Surface};
+mod common;
+
+use common::{run_to_verdict, step_down, straight_plan};
+use speleo_hal::world::Surface;
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
-
-/// A floor at z = 0 up to x = 2, and `drop` lower beyond it.
-fn step_down(drop: f32) -> Mesh {
-    let mut m = Mesh::default();
-    add_box(&mut m, [-3.0, -3.0, -1.0], [2.0, 3.0, 0.0], Surface::Rock);
-    add_box(&mut m, [2.0, -3.0, -1.0], [12.0, 3.0, -drop], Surface::Rock);
-    m
-}
-
-/// Straight along x from 0 to 5 m, on the floor's top.
-fn plan(drop: f64) -> Vec<[f64; 4]> {
-    (0..=50)
-        .map(|i| {
-            let x = 0.1 * i as f64;
-            let z = if x < 2.0 { 0.0 } else { -drop };
-            [x, 0.0, z, 0.0]
-        })
-        .collect()
-}
 
 /// The verdict, the prediction and the physics steps taken.
 fn drive(drop: f32, way_back: bool) -> (Verdict, Vec<[f64; 3]>, u64) {
@@ -32,16 +16,14 @@ fn drive(drop: f32, way_back: bool) -> (Verdict, Vec<[f64; 3]>, u64) {
     };
     let start = Stance::level(0.0, 0.0, p.base_height_m, 0.0);
     let mut sim = InternalSim::new(p).expect("sim");
-    sim.begin_on(start, plan(drop as f64), step_down(drop));
+    // A floor at z = 0 up to x = 2, and `drop` lower beyond; 5 m along x.
+    let ground = step_down(0.0, 2.0, drop, Surface::Rock);
+    sim.begin_on(start, straight_plan(5.0, 2.0, drop as f64), ground);
     if way_back {
         sim.check_way_back();
     }
-    for _ in 0..1_000_000 {
-        if let Some(v) = sim.step_without_clouds(50) {
-            return (v, sim.prediction().to_vec(), sim.counters.physics_steps);
-        }
-    }
-    panic!("no verdict");
+    let v = run_to_verdict(&mut sim);
+    (v, sim.prediction().to_vec(), sim.counters.physics_steps)
 }
 
 #[test]
