@@ -390,18 +390,13 @@ pub(crate) fn simulate(
     )?;
     drop(hw);
     finish_maps(cfg, out, &mut result)?;
-    let (falls, worst_fall_m, wrecked) = sim_hw.falls();
-    if wrecked {
+    let strikes = sim_hw.strikes();
+    if strikes.wrecked {
         tracing::warn!(
-            "the rover fell {worst_fall_m:.1} m and was wrecked: the mission ended there"
+            "the rover fell {:.1} m and was wrecked: the mission ended there",
+            strikes.worst_fall_m
         );
     }
-    let strikes = Strikes {
-        collisions: sim_hw.collisions(),
-        falls,
-        worst_fall_m,
-        wrecked,
-    };
     exploration_truth(cfg, &world, &strikes, &mut result)?;
     Ok(result)
 }
@@ -444,21 +439,12 @@ fn plot_data(r: &MissionResult) -> crate::plot::PlotData {
     d
 }
 
-/// What the world's physics saw the rover strike: walls and ceiling
-/// (collisions), and the ground after a fall.
-struct Strikes {
-    collisions: u64,
-    falls: u64,
-    worst_fall_m: f64,
-    wrecked: bool,
-}
-
 /// The exploration's ground-truth figures: the rover's strikes, and the
 /// fraction of the world's reachable floor that the explored map covers.
 fn exploration_truth(
     cfg: &Config,
     world: &speleo_hal::world::World,
-    strikes: &Strikes,
+    strikes: &speleo_hal::sim::Strikes,
     r: &mut MissionResult,
 ) -> Result<(), Error> {
     use crate::exploration_figures as ef;

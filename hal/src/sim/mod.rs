@@ -69,6 +69,20 @@ impl Default for SimParams {
 /// Given to the recorder's ground-truth topic only; on-board tasks never get it.
 pub type TruthProbe = std::rc::Rc<std::cell::Cell<GroundTruth>>;
 
+/// What the world's physics saw the rover strike over a mission.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Strikes {
+    /// Times the chassis struck a wall, the ceiling or a boulder's side.
+    pub collisions: u64,
+    /// Times it fell (sank faster than [`physics::FALL_SPEED_MPS`]).
+    pub falls: u64,
+    /// The worst fall's height, m.
+    pub worst_fall_m: f64,
+    /// Whether a fall wrecked it (one from [`physics::WRECK_HEIGHT_M`] or
+    /// more).
+    pub wrecked: bool,
+}
+
 /// The simulated rover and its devices.
 pub struct SimHardware {
     t_ns: u64,
@@ -176,22 +190,17 @@ impl SimHardware {
         self.truth.get()
     }
 
-    /// Times the chassis has struck the world (walls, ceiling, a boulder's
-    /// side); always 0 for the kinematic rover.
-    pub fn collisions(&self) -> u64 {
+    /// What the world's physics saw the rover strike: walls and ceiling,
+    /// and the ground after a fall; nothing for the kinematic rover.
+    pub fn strikes(&self) -> Strikes {
         match &self.motion {
-            Motion::Kinematic(_) => 0,
-            Motion::Physics(r) => r.collisions,
-        }
-    }
-
-    /// Times the rover fell (sank faster than
-    /// [`physics::FALL_SPEED_MPS`]), the worst fall's height, m, and
-    /// whether a fall wrecked it; no falls for the kinematic rover.
-    pub fn falls(&self) -> (u64, f64, bool) {
-        match &self.motion {
-            Motion::Kinematic(_) => (0, 0.0, false),
-            Motion::Physics(r) => (r.falls, r.worst_fall_m, r.wrecked),
+            Motion::Kinematic(_) => Strikes::default(),
+            Motion::Physics(r) => Strikes {
+                collisions: r.collisions,
+                falls: r.falls,
+                worst_fall_m: r.worst_fall_m,
+                wrecked: r.wrecked,
+            },
         }
     }
 
@@ -258,7 +267,7 @@ impl Hardware for SimHardware {
         }
     }
     fn world_over(&self) -> bool {
-        self.falls().2
+        self.strikes().wrecked
     }
     fn lidar(&mut self) -> &mut dyn LidarSource {
         &mut self.lidar
