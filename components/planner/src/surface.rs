@@ -75,6 +75,15 @@ pub struct SurfaceParams {
     /// and was stranded there.
     pub edge_weight: f64,
     pub edge_reach_m: f64,
+    /// Wheels over an edge: a primitive whose body rectangle, over all
+    /// its poses, covers this many drop cells or more (cells with
+    /// nothing near the path node's support plane and ground seen under
+    /// it, as for the edge cost) is refused (0: off). The
+    /// traversability map's footprint is a 0.4 m disc, inside the body's
+    /// corners: in the simulated garage a plan turning at a ramp's foot
+    /// put a corner 0.1 m over the ramp's open side, 0.5 m over the
+    /// level below, and the rover tipped there.
+    pub body_drop_cells: u32,
 }
 
 /// Bumps lower than this over a node's support plane cost nothing: the
@@ -95,6 +104,7 @@ impl Default for SurfaceParams {
             bump_weight: 0.0,
             edge_weight: 0.0,
             edge_reach_m: 0.8,
+            body_drop_cells: 0,
         }
     }
 }
@@ -157,6 +167,9 @@ pub struct SurfaceLattice {
     /// Per node: squared distance (cells) to the nearest drop cell within
     /// `edge_reach_m` (`u16::MAX`: none, or the edge term is off).
     edge_d2: Vec<u16>,
+    /// Per node: squared distance (cells) to the nearest drop cell within
+    /// the body's circle (`u16::MAX`: none, or `body_drop_cells` is 0).
+    rim_d2: Vec<u16>,
     /// Per node: the tallest bump over its support plane under the body's
     /// inscribed circle, as a fraction of the way from [`BUMP_FLOOR_M`]
     /// to the ground clearance, in 1/255 (0 with `bump_weight` 0).
@@ -255,6 +268,7 @@ impl SurfaceLattice {
             clear: Vec::with_capacity(n),
             blocked_d2: Vec::with_capacity(n),
             edge_d2: Vec::with_capacity(n),
+            rim_d2: Vec::with_capacity(n),
             bump: Vec::with_capacity(n),
             inscribed_d2,
             drop_tol,
@@ -353,6 +367,7 @@ impl SurfaceLattice {
         self.clear.clear();
         self.blocked_d2.clear();
         self.edge_d2.clear();
+        self.rim_d2.clear();
         self.bump.clear();
         self.heuristic.clear();
         self.heuristic.resize(n, INFINITE_COST);
@@ -536,17 +551,20 @@ impl SurfaceLattice {
             -1.0
         };
         let reach = reach.max(e2.max(0.0).sqrt().ceil() as i32);
+        let rims = self.p.body_drop_cells > 0;
         // The nearest cell (squared, in cells) with something in the band,
-        // and the nearest drop.
+        // the nearest drop, and the nearest drop within the circle.
         let mut nearest = u16::MAX;
         let mut edge = u16::MAX;
+        let mut rim = u16::MAX;
         if free {
             for dy in -reach..=reach {
                 for dx in -reach..=reach {
                     let d2 = dx * dx + dy * dy;
                     let band = d2 as f64 <= r2 && d2 < nearest as i32;
                     let drop = d2 as f64 <= e2 && d2 < edge as i32;
-                    if !band && !drop {
+                    let wheel = rims && d2 as f64 <= r2 && d2 < rim as i32;
+                    if !band && !drop && !wheel {
                         continue;
                     }
                     let (ix, iy) = (nd.ix + dx, nd.iy + dy);
@@ -556,15 +574,20 @@ impl SurfaceLattice {
                         nearest = d2 as u16;
                         continue;
                     }
-                    if drop && self.drop_at(ix, iy, ground) {
-                        edge = d2 as u16;
+                    if (drop || wheel) && self.drop_at(ix, iy, ground) {
+                        if drop {
+                            edge = d2 as u16;
+                        }
+                        if wheel {
+                            rim = d2 as u16;
+                        }
                     }
                 }
             }
         } else {
             nearest = 0;
         }
-        let clear = nearest == u16::MAX;
+        let clear = nearest == u16::MAX && rim == u16::MAX;
         let bump = if free && self.p.bump_weight > 0.0 {
             self.bump_under(&nd)
         } else {
@@ -575,6 +598,7 @@ impl SurfaceLattice {
         self.clear.push(clear);
         self.blocked_d2.push(nearest);
         self.edge_d2.push(edge);
+        self.rim_d2.push(rim);
         Prep::Clear(i + 1)
     }
 
@@ -750,6 +774,7 @@ impl SurfaceLattice {
         let start = &nodes[n as usize];
         let oriented = if all_clear { &[][..] } else { &a.footprint[..] };
         self.work.set(self.work.get() + oriented.len() as u64);
+        let mut drops = 0u32;
         for &(ox, oy, k) in oriented {
             let at = path[(k as usize).min(path.len() - 1)] as usize;
             let nd = &nodes[at];
@@ -758,14 +783,25 @@ impl SurfaceLattice {
             }
             let (ix, iy) = (start.ix + ox, start.iy + oy);
             // Every cell nearer a path node than the nearest cell with
-            // something in the band (within the body's circle, where this
-            // cell lies) is free: most are passed here.
+            // something in the band and the nearest drop (within the
+            // body's circle, where this cell lies) is free: most are
+            // passed here.
             let (dx, dy) = (ix - nd.ix, iy - nd.iy);
-            if dx * dx + dy * dy < self.blocked_d2[at] as i32 {
+            let d2 = dx * dx + dy * dy;
+            let band = d2 >= self.blocked_d2[at] as i32;
+            let rim = d2 >= self.rim_d2[at] as i32;
+            if !band && !rim {
                 continue;
             }
-            if !self.band_free(ix, iy, self.plane_z(nd, ix, iy)) {
+            let ground = self.plane_z(nd, ix, iy);
+            if band && !self.band_free(ix, iy, ground) {
                 return None;
+            }
+            if rim && self.drop_at(ix, iy, ground) {
+                drops += 1;
+                if drops >= self.p.body_drop_cells {
+                    return None;
+                }
             }
         }
         let slope_factor = if length_xy > 0.0 {

@@ -461,3 +461,41 @@ fn a_hole_in_the_deck_the_graph_bridges_is_no_edge() {
     assert!(cost(0.0).is_some(), "no plan");
     assert_eq!(cost(0.0), cost(2.0));
 }
+
+#[test]
+fn the_body_keeps_its_wheels_off_a_decks_open_side() {
+    // The deck's nodes 0.35 m from its open side have 0.4 m footprints
+    // on it but for one cell: the graph holds them. The body as on board
+    // (1.0 x 0.8 m with its margin) does not fit there.
+    let m = deck(false);
+    let start = [1.0, 2.0, 1.5, 0.0];
+    let plain = SurfaceParams {
+        body_length_m: 1.0,
+        body_width_m: 0.8,
+        ..SurfaceParams::default()
+    };
+    let wary = SurfaceParams {
+        body_drop_cells: 3,
+        ..plain.clone()
+    };
+    let along = [6.0, 2.65, 1.5, 0.0];
+    let facing = [6.0, 2.55, 1.5, std::f64::consts::FRAC_PI_2];
+    let inside = [6.0, 2.55, 1.5, 0.0];
+    for goal in [along, facing, inside] {
+        let p = plan_with(&m, start, goal, plain.clone());
+        assert!(p.cost.is_some(), "no plain plan to {goal:?}");
+    }
+    // Along the edge at 0.35 m the body's side is over it; 0.45 m from
+    // it and facing it, its nose.
+    assert!(plan_with(&m, start, along, wary.clone()).cost.is_none());
+    assert!(plan_with(&m, start, facing, wary.clone()).cost.is_none());
+    // 0.1 m further in, the whole way keeps the body on the deck.
+    let p = plan_with(&m, start, inside, wary);
+    assert!(p.cost.is_some(), "no plan");
+    let nearest = p
+        .path
+        .iter()
+        .map(|q| q[1])
+        .fold(f64::NEG_INFINITY, f64::max);
+    assert!(nearest <= 2.6, "{nearest:.2}");
+}

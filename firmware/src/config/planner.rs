@@ -70,6 +70,11 @@ pub struct PlannerConfig {
     /// in seed 1 (the planner README).
     pub edge_weight: f64,
     pub edge_reach_m: f64,
+    /// A primitive whose body rectangle covers this many cells of a drop
+    /// the map has seen (a ramp's open side) is refused: the
+    /// traversability map's 0.4 m footprint lies inside the body's
+    /// corners (see the planner README); 0: off.
+    pub body_drop_cells: u32,
     /// A drop at least `deep_drop_m` deep seen within this distance of a
     /// node blocks it (the traversability README); 0: the footprint's own
     /// drop check only.
@@ -108,6 +113,7 @@ impl Default for PlannerConfig {
             bump_weight: 10.0,
             edge_weight: s.edge_weight,
             edge_reach_m: s.edge_reach_m,
+            body_drop_cells: s.body_drop_cells,
             drop_clearance_m: t.drop_clearance_m,
             deep_drop_m: decimal(t.deep_drop_m),
             mprim: String::new(),
@@ -235,6 +241,13 @@ impl PlannerConfig {
             100.0,
             "0.01..=100",
         )?;
+        range(
+            "planner.body_drop_cells",
+            self.body_drop_cells,
+            0,
+            1000,
+            "0..=1000",
+        )?;
         // With the term on, each node's cell scan widens by this reach:
         // bounded, so a preparation unit's time is.
         range(
@@ -270,6 +283,7 @@ impl PlannerConfig {
             bump_weight: self.bump_weight,
             edge_weight: self.edge_weight,
             edge_reach_m: self.edge_reach_m,
+            body_drop_cells: self.body_drop_cells,
             ..speleo_planner::surface::SurfaceParams::default()
         }
     }
