@@ -73,7 +73,8 @@ pub struct PlannerConfig {
     /// A primitive whose body rectangle covers this many cells of a drop
     /// the map has seen (a ramp's open side) is refused: the
     /// traversability map's 0.4 m footprint lies inside the body's
-    /// corners (see the planner README); 0: off.
+    /// corners (see the planner README); 0: off. Off by default: at 3,
+    /// garage seeds 1 and 3 stalled 2.5 m up the first ramp.
     pub body_drop_cells: u32,
     /// A drop at least `deep_drop_m` deep seen within this distance of a
     /// node blocks it (the traversability README); 0: the footprint's own
