@@ -158,8 +158,9 @@ pub struct SurfaceLattice {
     body_free: Vec<bool>,
     /// Per node: nothing in the body's band over this node's support plane
     /// in any cell within the body's circumscribed circle (and a cell's
-    /// margin), so the body fits here in any orientation and the oriented
-    /// check can be skipped.
+    /// margin), and no drop there when `body_drop_cells` is set, so the
+    /// body fits here in any orientation and the oriented check can be
+    /// skipped.
     clear: Vec<bool>,
     /// Per node: squared distance (cells) to the nearest cell within that
     /// circle with something in the body's band (`u16::MAX`: none).
