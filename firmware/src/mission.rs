@@ -272,7 +272,7 @@ fn health_params(cfg: &Config) -> health::HealthParams {
 /// The simulator's worker as a task of its own core: a batch a frame at
 /// most, within [`crate::schedule_table::SIM_WORKER_BUDGET_US`].
 fn worker_figures(w: &SimWorker, minor_frame_us: u32) -> TaskFigures {
-    let h = &w.batch_times;
+    let (h, cpu) = (&w.batch_times, &w.batch_cpu_times);
     let us = |ns: u64| ns as f64 * 1e-3;
     let budget = crate::schedule_table::SIM_WORKER_BUDGET_US;
     TaskFigures {
@@ -285,10 +285,10 @@ fn worker_figures(w: &SimWorker, minor_frame_us: u32) -> TaskFigures {
         p50_us: us(h.quantile_ns(0.5)),
         p99_us: us(h.quantile_ns(0.99)),
         p999_us: us(h.quantile_ns(0.999)),
-        cpu_p99_us: None,
-        cpu_p999_us: None,
-        cpu_max_us: None,
-        overruns: 0,
+        cpu_p99_us: Some(us(cpu.quantile_ns(0.99))),
+        cpu_p999_us: Some(us(cpu.quantile_ns(0.999))),
+        cpu_max_us: Some(us(cpu.max_ns())),
+        overruns: w.counters.overruns,
         skipped: 0,
         // Charged to the planner, whose runs take its batches back.
         allocations: 0,

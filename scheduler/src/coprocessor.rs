@@ -8,7 +8,9 @@
 //! its results are seen depend only on the units, never on how fast the
 //! worker was, so outputs stay bit-identical on any machine and at any
 //! speed; only the time budget of a batch (a frame on the worker's core)
-//! is at stake, and it is measured ([`Batch::elapsed_ns`]).
+//! is at stake, and it is measured ([`Batch::elapsed_ns`], and on the
+//! worker thread's CPU clock [`Batch::cpu_ns`], which leaves out the time
+//! other threads on its core took).
 //!
 //! Between frames the application calls [`FrameSync::wait_idle`] (on a
 //! virtual clock the frames come back to back, and this is where a real
@@ -24,13 +26,16 @@
 use std::sync::{Arc, Condvar, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 
-use crate::accounting;
+use crate::{accounting, realtime};
 
 /// What one batch cost on the worker.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Batch {
     /// Wall time of the batch, ns.
     pub elapsed_ns: u64,
+    /// The worker thread's CPU time in the batch, ns
+    /// (`CLOCK_THREAD_CPUTIME_ID`).
+    pub cpu_ns: u64,
     /// Heap allocations made, and bytes requested.
     pub allocations: u64,
     pub bytes: u64,
@@ -182,11 +187,13 @@ fn serve<T: Send>(s: &Shared<T>, slot: u16, work: fn(&mut T, u32)) {
         let n0 = accounting::allocations(slot as usize);
         let b0 = accounting::bytes(slot as usize);
         let t0 = std::time::Instant::now();
+        let c0 = realtime::thread_cpu_ns();
         if let Some(job) = lock(&s.job).as_deref_mut() {
             work(job, units);
         }
         let batch = Batch {
             elapsed_ns: t0.elapsed().as_nanos() as u64,
+            cpu_ns: realtime::thread_cpu_ns().saturating_sub(c0),
             allocations: accounting::allocations(slot as usize) - n0,
             bytes: accounting::bytes(slot as usize) - b0,
         };
@@ -231,6 +238,7 @@ mod tests {
             cp.sync().wait_idle();
             let (j, batch) = cp.join().expect("lent");
             assert!(batch.elapsed_ns < 10_000_000_000);
+            assert!(batch.cpu_ns <= batch.elapsed_ns + 1_000_000);
             job = j;
             add(&mut local, units);
         }

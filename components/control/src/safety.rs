@@ -186,6 +186,17 @@ pub const TILT_GROWTH_DEG: f64 = 2.0;
 /// Beyond the tilt limit by this much, the rover does not move at all, deg.
 pub const TILT_HARD_MARGIN_DEG: f64 = 12.0;
 
+/// The tilt past which a plan that began at `start_deg` is stopped, deg:
+/// `limit_deg`, or the start's tilt plus [`TILT_GROWTH_DEG`] where that is
+/// more (a rover stopped on a slope can only get off it by moving), and
+/// never past the hard margin. The internal simulation judges its runs by
+/// the same rule, so that it refuses what the monitor would stop.
+pub fn tilt_stop_deg(limit_deg: f64, start_deg: f64) -> f64 {
+    limit_deg
+        .max(start_deg + TILT_GROWTH_DEG)
+        .min(limit_deg + TILT_HARD_MARGIN_DEG)
+}
+
 impl SafetyMonitor {
     pub fn new(p: SafetyParams) -> Self {
         SafetyMonitor {
@@ -235,8 +246,7 @@ impl SafetyMonitor {
         // does not grow (off the slope); past the hard limit nothing moves
         // (in the garage, plan after plan each walked the rover a few
         // degrees further up a ramp's side, until it turned over).
-        let hard = self.p.max_tilt_deg + TILT_HARD_MARGIN_DEG;
-        if s.tilt_deg > hard || s.tilt_deg > self.p.max_tilt_deg.max(start + TILT_GROWTH_DEG) {
+        if s.tilt_deg > tilt_stop_deg(self.p.max_tilt_deg, start) {
             return Some(StopReason::Tilt);
         }
         if self.stuck(s) {
@@ -671,6 +681,19 @@ mod tests {
     }
 
     #[test]
+    fn the_tilt_stop_is_the_limit_or_the_starts_tilt_plus_the_growth_and_never_past_the_hard_margin(
+    ) {
+        assert_eq!(tilt_stop_deg(30.0, 10.0), 30.0);
+        assert_eq!(tilt_stop_deg(30.0, 29.0), 29.0 + TILT_GROWTH_DEG);
+        assert_eq!(tilt_stop_deg(30.0, 35.0), 35.0 + TILT_GROWTH_DEG);
+        assert_eq!(tilt_stop_deg(30.0, 41.0), 30.0 + TILT_HARD_MARGIN_DEG);
+        assert_eq!(
+            tilt_stop_deg(30.0, f64::INFINITY),
+            30.0 + TILT_HARD_MARGIN_DEG
+        );
+    }
+
+    #[test]
     fn tilt_wall_and_straying_stop() {
         let flat = Ledge {
             edge: 100.0,
@@ -696,6 +719,14 @@ mod tests {
         assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
         m.reset();
         s.tilt_deg = 42.5;
+        assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
+        // Begun just under the limit, it may tilt two degrees further.
+        m.reset();
+        s.tilt_deg = 29.0;
+        assert_eq!(m.check(&s, &flat), None);
+        s.tilt_deg = 30.9;
+        assert_eq!(m.check(&s, &flat), None);
+        s.tilt_deg = 31.1;
         assert_eq!(m.check(&s, &flat), Some(StopReason::Tilt));
         m.reset();
         let mut s = input(0.0, 0.0);

@@ -1,6 +1,7 @@
 //! One validation: build the world around the plan, settle the rover,
 //! drive the plan, judge.
 
+use speleo_control::safety::{tilt_stop_deg, TILT_GROWTH_DEG};
 use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS, REVERSE_SPEED_SCALE};
 use speleo_hal::sim::physics::PhysicsRover;
 use speleo_hal::world::Mesh;
@@ -723,13 +724,17 @@ impl InternalSim {
         self.step += 1;
         self.counters.physics_steps += 1;
         // The judgement.
-        if self.step == 1 && tilt > self.p.tip_over_deg {
-            // Settling on a steep slope rocks the model by a few degrees:
-            // the start's tilt is taken once it has settled.
-            self.tilt_limit_deg = tilt_limit(self.p.tip_over_deg, f64::INFINITY);
+        // A start near or over the limit is judged as the safety monitor
+        // judges the real rover's (`tilt_stop_deg`): with the plain limit
+        // every way off a slope read as a tip-over at once, and the lava
+        // tube's rover, stopped at 30.1 degrees on the muddy entrance, was
+        // stranded there. Settling on a steep slope rocks the model by a
+        // few degrees: the start's tilt is taken once it has settled.
+        if self.step == 1 && tilt + TILT_GROWTH_DEG > self.p.tip_over_deg {
+            self.tilt_limit_deg = tilt_stop_deg(self.p.tip_over_deg, f64::INFINITY);
             self.tilted_start = true;
         } else if self.step == settle_steps && self.tilted_start {
-            self.tilt_limit_deg = tilt_limit(self.p.tip_over_deg, tilt);
+            self.tilt_limit_deg = tilt_stop_deg(self.p.tip_over_deg, tilt);
         }
         if tilt > self.tilt_limit_deg {
             return self.verdict_now(Outcome::TippedOver);
@@ -838,21 +843,4 @@ fn segment_distance(c: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
         0.0
     };
     (c[0] - a[0] - t * dx).hypot(c[1] - a[1] - t * dy)
-}
-
-/// The tilt past which a run that starts at `start_deg` has tipped over:
-/// `limit_deg`, or, when it starts beyond that (the safety monitor
-/// stopped the real rover there), as the safety monitor lets such a rover
-/// move: while the tilt grows by no more than
-/// [`speleo_control::safety::TILT_GROWTH_DEG`], and never past the hard
-/// margin. Without it every way off a slope read as a tip-over at once,
-/// and the lava tube's rover, stopped at 30.1 degrees on the muddy
-/// entrance, was stranded there.
-fn tilt_limit(limit_deg: f64, start_deg: f64) -> f64 {
-    use speleo_control::safety::{TILT_GROWTH_DEG, TILT_HARD_MARGIN_DEG};
-    if start_deg > limit_deg {
-        (start_deg + TILT_GROWTH_DEG).min(limit_deg + TILT_HARD_MARGIN_DEG)
-    } else {
-        limit_deg
-    }
 }

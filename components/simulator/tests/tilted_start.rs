@@ -2,8 +2,9 @@
 //! slope whose ground under the rover the scans never saw, it is not put
 //! down level on a shelf cut into the slope.
 
+use speleo_control::safety::{tilt_stop_deg, TILT_GROWTH_DEG};
 use speleo_hal::sim::quat;
-use speleo_simulator::{CloudSource, InternalSim, SimulatorParams, Stance};
+use speleo_simulator::{CloudSource, InternalSim, Outcome, SimulatorParams, Stance};
 
 /// Side slope angle, rad (about 20°): rising toward +y.
 const SLOPE: f64 = 0.36;
@@ -120,4 +121,41 @@ fn with_the_tilted_start_off_a_rover_tilted_past_the_threshold_still_starts_tilt
     // ...under a 25-degree one, level.
     let under = tilt_after_a_second(tilted, false, 25.0);
     assert_eq!(under.to_bits(), level.to_bits(), "{under:.1}");
+}
+
+/// The verdict on a 3 m drive along the slope from where the rover stands
+/// on it, with the tilt limit `limit_deg`: the outcome, and when, s.
+fn along_the_slope(limit_deg: f64) -> (Outcome, u64) {
+    let p = SimulatorParams {
+        tip_over_deg: limit_deg,
+        ..SimulatorParams::default()
+    };
+    let mut sim = InternalSim::new(p).expect("sim");
+    let plan: Vec<[f64; 4]> = (0..=30).map(|i| [0.1 * i as f64, 0.0, 0.0, 0.0]).collect();
+    sim.begin(stances().0, plan);
+    let scans = SideSlope::new();
+    for _ in 0..2_000_000 {
+        if let Some(v) = sim.step(&scans, 64) {
+            return (v.outcome, v.drive_s.to_bits());
+        }
+    }
+    panic!("no verdict");
+}
+
+#[test]
+fn a_start_near_or_over_the_tilt_limit_is_judged_by_the_safety_monitors_rule() {
+    let start = SLOPE.to_degrees();
+    // Begun over the limit (where the monitor stopped the real rover), it
+    // may drive on while its tilt grows by no more than the growth; the
+    // leg-wheels rock it past that on this drive.
+    let over = along_the_slope(start - 1.0);
+    assert_eq!(over.0, Outcome::TippedOver);
+    // Begun within the growth under the limit, the monitor lets the real
+    // rover tilt as far, and the simulation stops it there, not sooner.
+    for d in [0.2, 1.0] {
+        assert_eq!(tilt_stop_deg(start + d, start), start + TILT_GROWTH_DEG);
+        assert_eq!(along_the_slope(start + d), over, "limit {d} over the start");
+    }
+    // Far under the limit it is the limit, and this drive keeps under it.
+    assert_eq!(along_the_slope(start + 8.0).0, Outcome::Reached);
 }

@@ -18,6 +18,10 @@ use speleo_simulator::InternalSim;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct WorkerCounters {
     pub batches: u64,
+    /// Batches whose wall time was over the worker's budget
+    /// ([`crate::schedule_table::SIM_WORKER_BUDGET_US`]), as the
+    /// executive counts its tasks' overruns.
+    pub overruns: u64,
     /// Batches that drove the simulated rover, and its physics steps in them.
     pub drive_batches: u64,
     pub drive_steps: u64,
@@ -31,8 +35,9 @@ pub struct SimWorker {
     /// Whether the batch out began in the drive phase, and the physics
     /// steps before it.
     out: Option<(bool, u64)>,
-    /// Wall time of each batch on the worker.
+    /// Wall time of each batch on the worker, and its CPU time.
     pub batch_times: Histogram,
+    pub batch_cpu_times: Histogram,
     pub counters: WorkerCounters,
 }
 
@@ -49,6 +54,7 @@ impl SimWorker {
             dt_s,
             out: None,
             batch_times: Histogram::new(),
+            batch_cpu_times: Histogram::new(),
             counters: WorkerCounters::default(),
         })
     }
@@ -92,7 +98,11 @@ impl SimWorker {
         let (sim, b) = self.cp.join()?;
         accounting::charge(b.allocations, b.bytes);
         self.batch_times.record(b.elapsed_ns);
+        self.batch_cpu_times.record(b.cpu_ns);
         self.counters.batches += 1;
+        if b.elapsed_ns > crate::schedule_table::SIM_WORKER_BUDGET_US as u64 * 1000 {
+            self.counters.overruns += 1;
+        }
         if let Some((true, steps)) = self.out.take() {
             self.counters.drive_batches += 1;
             self.counters.drive_steps += sim.counters.physics_steps - steps;
