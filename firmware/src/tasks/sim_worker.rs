@@ -32,9 +32,8 @@ pub struct SimWorker {
     units: u32,
     /// The simulator's physics step, s.
     dt_s: f64,
-    /// Whether the batch out began in the drive phase, and the physics
-    /// steps before it.
-    out: Option<(bool, u64)>,
+    /// The work the batch out began in, and the physics steps before it.
+    out: Option<(&'static str, u64)>,
     /// Wall time of each batch on the worker, and its CPU time.
     pub batch_times: Histogram,
     pub batch_cpu_times: Histogram,
@@ -74,10 +73,10 @@ impl SimWorker {
         if sim.needs_clouds() {
             return Err(sim);
         }
-        let drive = sim.work() == "drive";
+        let work = sim.work();
         let steps = sim.counters.physics_steps;
         self.cp.lend(sim, self.units)?;
-        self.out = Some((drive, steps));
+        self.out = Some((work, steps));
         Ok(())
     }
 
@@ -100,12 +99,28 @@ impl SimWorker {
         self.batch_times.record(b.elapsed_ns);
         self.batch_cpu_times.record(b.cpu_ns);
         self.counters.batches += 1;
-        if b.elapsed_ns > crate::schedule_table::SIM_WORKER_BUDGET_US as u64 * 1000 {
+        let budget_ns = crate::schedule_table::SIM_WORKER_BUDGET_US as u64 * 1000;
+        if b.elapsed_ns > budget_ns {
             self.counters.overruns += 1;
         }
-        if let Some((true, steps)) = self.out.take() {
-            self.counters.drive_batches += 1;
-            self.counters.drive_steps += sim.counters.physics_steps - steps;
+        if let Some((work, steps)) = self.out.take() {
+            let steps = sim.counters.physics_steps - steps;
+            if work == "drive" {
+                self.counters.drive_batches += 1;
+                self.counters.drive_steps += steps;
+            }
+            if b.cpu_ns > budget_ns {
+                // Which work, and how far it got: what the units missed.
+                tracing::debug!(
+                    work,
+                    next = sim.work(),
+                    steps,
+                    units = self.units,
+                    cpu_us = b.cpu_ns / 1000,
+                    wall_us = b.elapsed_ns / 1000,
+                    "slow simulator batch"
+                );
+            }
         }
         Some(sim)
     }
