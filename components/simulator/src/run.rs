@@ -1,7 +1,7 @@
 //! One validation: build the world around the plan, settle the rover,
 //! drive the plan, judge.
 
-use speleo_control::safety::{tilt_stop_deg, TILT_GROWTH_DEG};
+use speleo_control::safety::tilt_stop_deg;
 use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS, REVERSE_SPEED_SCALE};
 use speleo_hal::sim::physics::PhysicsRover;
 use speleo_hal::world::Mesh;
@@ -730,7 +730,7 @@ impl InternalSim {
         // tube's rover, stopped at 30.1 degrees on the muddy entrance, was
         // stranded there. Settling on a steep slope rocks the model by a
         // few degrees: the start's tilt is taken once it has settled.
-        if self.step == 1 && tilt + TILT_GROWTH_DEG > self.p.tip_over_deg {
+        if self.step == 1 && tilt_stop_deg(self.p.tip_over_deg, tilt) > self.p.tip_over_deg {
             self.tilt_limit_deg = tilt_stop_deg(self.p.tip_over_deg, f64::INFINITY);
             self.tilted_start = true;
         } else if self.step == settle_steps && self.tilted_start {
