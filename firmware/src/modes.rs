@@ -923,11 +923,14 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
     let show_drive = |label: &str, d: &tv::Drive| {
         let [tx, ty, tz] = d.max_tilt_at;
         println!(
-            "{label}: {} ({} physics steps, {} triangles, {:.0} ms); most tilt {:.1} deg at ({tx:.2}, {ty:.2}, {tz:.2})",
+            "{label}: {} ({} physics steps, {} triangles, {:.0} ms; a step {:.0} us of CPU median, {:.0} p99, {:.0} max); most tilt {:.1} deg at ({tx:.2}, {ty:.2}, {tz:.2})",
             show(&d.verdict),
             d.physics_steps,
             d.triangles,
             d.wall_ms,
+            d.step_us[0],
+            d.step_us[1],
+            d.step_us[2],
             d.max_tilt_deg
         );
     };

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use speleo_hal::sim::{quat, BodyState};
 use speleo_hal::world::Mesh;
+use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_simulator::{InternalSim, SimulatorParams, Stance, ValidationCase, Verdict};
 
 use super::Error;
@@ -26,6 +27,9 @@ pub struct Drive {
     pub max_tilt_deg: f64,
     pub max_tilt_at: [f64; 3],
     pub wall_ms: f64,
+    /// The physics steps' CPU times, us: median, 99th percentile and
+    /// the longest (what the worker's budget must hold).
+    pub step_us: [f64; 3],
 }
 
 /// The case's verdict equals `v` (outcome, driving time and goal error
@@ -107,12 +111,13 @@ fn drive(
     if let Some(t) = track.as_deref_mut() {
         writeln!(
             t,
-            "t_s,x_m,y_m,z_m,roll_deg,pitch_deg,yaw_deg,tilt_deg,v_mps,w_radps"
+            "t_s,x_m,y_m,z_m,roll_deg,pitch_deg,yaw_deg,tilt_deg,v_mps,w_radps,cpu_us,contact_tests,contact_points"
         )?;
     }
     let started = Instant::now();
     let (mut max_tilt_deg, mut max_tilt_at) = (0.0f64, [f64::NAN; 3]);
     let mut steps = 0u64;
+    let mut step_times = Vec::new();
     let verdict = loop {
         let driving = sim.work() == "drive";
         if driving && steps == 0 {
@@ -120,8 +125,11 @@ fn drive(
                 world.write_ply(m)?;
             }
         }
+        let c0 = thread_cpu_ns();
         let v = step(sim);
         if driving {
+            let cpu_us = thread_cpu_ns().saturating_sub(c0) as f64 * 1e-3;
+            step_times.push(cpu_us);
             steps += 1;
             if let Some(s) = sim.rover_state() {
                 let [roll, pitch, yaw, tilt] = attitude(s);
@@ -132,9 +140,10 @@ fn drive(
                     let [x, y, z] = s.position;
                     let ts = steps as f64 * dt;
                     let (v, w) = sim.command();
+                    let [_, tests, points] = sim.contact_load();
                     writeln!(
                         t,
-                        "{ts:.2},{x:.4},{y:.4},{z:.4},{roll:.2},{pitch:.2},{yaw:.2},{tilt:.2},{v:.3},{w:.3}"
+                        "{ts:.2},{x:.4},{y:.4},{z:.4},{roll:.2},{pitch:.2},{yaw:.2},{tilt:.2},{v:.3},{w:.3},{cpu_us:.1},{tests},{points}"
                     )?;
                 }
             }
@@ -150,7 +159,18 @@ fn drive(
         max_tilt_deg,
         max_tilt_at,
         wall_ms: started.elapsed().as_secs_f64() * 1e3,
+        step_us: percentiles(&mut step_times),
     })
+}
+
+/// Median, 99th percentile and largest of `v` (NaN when empty; sorts it).
+fn percentiles(v: &mut [f64]) -> [f64; 3] {
+    if v.is_empty() {
+        return [f64::NAN; 3];
+    }
+    v.sort_by(f64::total_cmp);
+    let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+    [at(0.5), at(0.99), at(1.0)]
 }
 
 /// A case in the world: the start (where and how the rover truly stood),
@@ -284,6 +304,13 @@ pub fn crop(mesh: &Mesh, start: [f64; 3], plan: &[[f64; 4]], margin: f64) -> Mes
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_step_times_median_p99_and_largest() {
+        let mut v: Vec<f64> = (1..=200).rev().map(f64::from).collect();
+        assert_eq!(percentiles(&mut v), [101.0, 198.0, 200.0]);
+        assert!(percentiles(&mut []).iter().all(|x| x.is_nan()));
+    }
 
     #[test]
     fn a_case_is_carried_into_the_world_by_the_true_pose_when_it_began() {

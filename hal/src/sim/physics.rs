@@ -454,6 +454,24 @@ impl PhysicsRover {
         self.state.wheel_speed = [0.0; WHEELS];
     }
 
+    /// The narrow phase's load after the last step: collider pairs whose
+    /// bounding boxes meet, their manifolds (one for each pair of parts,
+    /// a leg and a triangle say, whose boxes meet within the prediction
+    /// distance: a contact test each) and the contact points in them.
+    pub fn contact_load(&self) -> [usize; 3] {
+        let mut load = [0; 3];
+        for pair in self.world.narrow_phase.contact_pairs() {
+            load[0] += 1;
+            load[1] += pair.manifolds().len();
+            load[2] += pair
+                .manifolds()
+                .iter()
+                .map(|m| m.points.len())
+                .sum::<usize>();
+        }
+        load
+    }
+
     /// Whether the chassis touches the world anywhere but its underside on
     /// the ground (bottoming out on a rock is a scrape, not a collision).
     fn chassis_hits_world(&self) -> bool {
