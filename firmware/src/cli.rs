@@ -379,6 +379,11 @@ pub struct SimArgs {
     /// Seed of every random source of the simulation [default: from config, 1].
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
+    /// Seed of the sensors' noise alone, the world and the start keeping
+    /// --seed: the same mission with another noise stream [default: from
+    /// config, the seed].
+    #[arg(long, value_name = "N")]
+    pub noise_seed: Option<u64>,
     /// Simulated seconds to run at most [default: from config, 7200]; an
     /// exploration ends earlier, once the rover is home.
     #[arg(long, value_name = "S")]

@@ -101,6 +101,11 @@ pub struct TaskOverride {
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     pub seed: u64,
+    /// Seed of the sensors' noise alone (the LiDAR's ranges and the
+    /// IMU's), the world and the start keeping `seed`: the same mission
+    /// with another noise stream, to see how much its course turns on
+    /// millimetres (none: `seed`).
+    pub noise_seed: Option<u64>,
     /// `lava-tube`, `garage`, `flat`, or a .ply/.obj/.stl mesh file.
     pub world: String,
     pub duration_s: f64,
@@ -154,6 +159,7 @@ impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
             seed: 1,
+            noise_seed: None,
             world: "lava-tube".into(),
             duration_s: 7200.0,
             lidar: true,

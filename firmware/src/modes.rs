@@ -315,6 +315,9 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     if let Some(s) = a.seed {
         cfg.sim.seed = s;
     }
+    if let Some(s) = a.noise_seed {
+        cfg.sim.noise_seed = Some(s);
+    }
     if let Some(d) = a.duration {
         cfg.sim.duration_s = d;
     }
@@ -372,6 +375,9 @@ pub(crate) fn simulate(
     let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
     let mut meta = run_metadata(cfg, "sim", epoch_ns);
     meta.insert("seed".into(), cfg.sim.seed.to_string());
+    if let Some(s) = cfg.sim.noise_seed {
+        meta.insert("noise_seed".into(), s.to_string());
+    }
     meta.insert("world".into(), cfg.sim.world.clone());
     let mut session = Session::open(out, cfg, meta, epoch_ns, None, true)?;
     // A clock jump skips frames of the mission's time.
@@ -480,7 +486,7 @@ fn exploration_truth(
 pub fn sim_params(cfg: &Config) -> SimParams {
     let [mr, mp, my] = cfg.sim.imu_misalignment_deg.map(f64::to_radians);
     SimParams {
-        seed: cfg.sim.seed,
+        seed: cfg.sim.noise_seed.unwrap_or(cfg.sim.seed),
         rover: RoverParams {
             wheel_radius_m: cfg.rover.wheel_radius_m,
             track_width_m: cfg.rover.track_width_m,

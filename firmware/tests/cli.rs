@@ -27,8 +27,13 @@ fn hashes_of(report: &Path) -> (String, String) {
 
 /// Run a 2 s simulation in its own process and return its hashes.
 fn sim_hashes(dir: &Path, world: &str, seed: &str) -> (String, String) {
+    sim_hashes_with(dir, world, seed, &[])
+}
+
+/// As [`sim_hashes`], with `extra` arguments.
+fn sim_hashes_with(dir: &Path, world: &str, seed: &str, extra: &[&str]) -> (String, String) {
     let r = dir.join("r.json");
-    let out = speleo(&[
+    let mut args = vec![
         "sim",
         "--world",
         world,
@@ -38,7 +43,9 @@ fn sim_hashes(dir: &Path, world: &str, seed: &str) -> (String, String) {
         seed,
         "--report",
         r.to_str().expect("utf8"),
-    ]);
+    ];
+    args.extend_from_slice(extra);
+    let out = speleo(&args);
     assert!(out.status.success(), "{world}: {}", text(&out.stderr));
     hashes_of(&r)
 }
@@ -67,6 +74,20 @@ fn every_world_gives_the_same_byte_streams_in_two_processes() {
     let a = sim_hashes(d.path(), "lava-tube", "4");
     let c = sim_hashes(d.path(), "lava-tube", "5");
     assert_ne!(a.1, c.1);
+}
+
+#[test]
+fn a_noise_seed_changes_the_sensors_noise_and_not_the_world() {
+    let d = tempfile::tempdir().expect("tmp");
+    let plain = sim_hashes(d.path(), "lava-tube", "4");
+    // By default the noise follows the seed.
+    let same = sim_hashes_with(d.path(), "lava-tube", "4", &["--noise-seed", "4"]);
+    assert_eq!(plain, same);
+    let other_noise = sim_hashes_with(d.path(), "lava-tube", "4", &["--noise-seed", "7"]);
+    assert_ne!(plain.1, other_noise.1);
+    // The same noise in another cave: the world still follows the seed.
+    let other_cave = sim_hashes_with(d.path(), "lava-tube", "7", &["--noise-seed", "7"]);
+    assert_ne!(other_noise.1, other_cave.1);
 }
 
 /// Run `speleo sim` with `toml` as its configuration file `name`; it must

@@ -37,6 +37,7 @@ pub fn sim_with_trajectory(
         SimArgs {
             world: None,
             seed: Some(seed),
+            noise_seed: None,
             duration: Some(duration_s),
             config: config.map(Path::to_path_buf),
             route: true,

@@ -22,6 +22,7 @@ fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> s
         SimArgs {
             world: Some(world.into()),
             seed: Some(1),
+            noise_seed: None,
             duration: Some(duration_s),
             config: Some(config),
             route: false,
