@@ -365,14 +365,14 @@ impl InternalSim {
         self.lowest_z - THROUGH_UNDER_PLAN_M
     }
 
-    /// The simulated rover's state after the last physics step, once it
-    /// has been put down.
     /// The physics' contact load after the last step (see
     /// [`PhysicsRover::contact_load`]); zero before the rover is put down.
     pub fn contact_load(&self) -> [usize; 3] {
         self.rover.as_ref().map_or([0; 3], |r| r.contact_load())
     }
 
+    /// The simulated rover's state after the last physics step, once it
+    /// has been put down.
     pub fn rover_state(&self) -> Option<&speleo_hal::sim::BodyState> {
         self.rover.as_deref().map(PhysicsRover::state)
     }
