@@ -376,7 +376,8 @@ pub struct SimArgs {
     /// World to simulate: lava-tube, short-tube, garage, boulders, flat, or a PLY/OBJ/STL mesh.
     #[arg(long, value_name = "NAME|MESH")]
     pub world: Option<String>,
-    /// Seed of every random source of the simulation [default: from config, 1].
+    /// Seed of every random source of the simulation, the sensors' noise
+    /// too unless --noise-seed is given [default: from config, 1].
     #[arg(long, value_name = "N")]
     pub seed: Option<u64>,
     /// Seed of the sensors' noise alone, the world and the start keeping
