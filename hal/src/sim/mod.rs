@@ -11,6 +11,7 @@
 //! pure-Rust code, so the byte streams repeat on any machine.
 
 pub mod body;
+pub mod chassis_contacts;
 pub mod drives;
 pub mod imu;
 pub mod lidar;

@@ -16,6 +16,7 @@ use rapier3d::math::{Pose, Rotation, Vector};
 use rapier3d::prelude::*;
 
 use super::body::{BodyState, GRAVITY, WHEELS};
+use super::chassis_contacts::ChassisContacts;
 use super::quat::{self, Quat};
 use crate::world::{Mesh, Surface};
 
@@ -214,6 +215,9 @@ impl PhysicsRover {
     ) -> Result<Self, String> {
         p.validate()?;
         let mut world = PhysicsWorld::new();
+        // Same contacts as parry's default, the chassis's far triangles
+        // dropped cheaply (see chassis_contacts).
+        world.narrow_phase = NarrowPhase::with_query_dispatcher(ChassisContacts);
         world.gravity = Vector::new(0.0, 0.0, -GRAVITY as f32);
         world.integration_parameters.dt = dt_s as f32;
         world.integration_parameters.num_solver_iterations = p.solver_iterations as usize;
@@ -452,6 +456,13 @@ impl PhysicsRover {
         self.state.angular_velocity = [0.0; 3];
         self.state.specific_force = quat::rotate_inv(&self.state.orientation, [0.0, 0.0, GRAVITY]);
         self.state.wheel_speed = [0.0; WHEELS];
+    }
+
+    /// Put parry's own narrow phase in place of [`ChassisContacts`]: the same
+    /// contacts, bit for bit, without the chassis's cheap first test. The
+    /// reference for benchmarks and tests; call it before the first step.
+    pub fn use_parry_narrow_phase(&mut self) {
+        self.world.narrow_phase = NarrowPhase::new();
     }
 
     /// The narrow phase's load after the last step: collider pairs whose
@@ -747,5 +758,75 @@ mod tests {
         let (_, a) = drive(&w, [2.0, 2.5, 2.0, 2.5], 1.0);
         let (_, b) = drive(&w, [2.0, 2.5, 2.0, 2.5], 1.0);
         assert_eq!(a, b);
+    }
+
+    /// Ground 3 m square round the origin, of right triangles with legs of
+    /// `cell` m (a TSDF mesh's density), at the height `z(x, y)`.
+    fn grid(cell: f64, z: impl Fn(f64, f64) -> f64) -> Mesh {
+        let n = (3.0 / cell).round() as u32;
+        let mut m = Mesh::default();
+        for i in 0..=n {
+            for j in 0..=n {
+                let (x, y) = (-1.5 + i as f64 * cell, -1.5 + j as f64 * cell);
+                m.vertices.push([x as f32, y as f32, z(x, y) as f32]);
+            }
+        }
+        for i in 0..n {
+            for j in 0..n {
+                let v = i * (n + 1) + j;
+                let (a, b, c, d) = (v, v + 1, v + n + 1, v + n + 2);
+                m.triangles.push([a, c, d]);
+                m.triangles.push([a, d, b]);
+                m.surfaces.extend([Surface::Rock; 2]);
+            }
+        }
+        m
+    }
+
+    /// The chassis's manifolds with the ground after the last step: with
+    /// contact points, and without (triangles near it but clear).
+    fn chassis_manifolds(r: &PhysicsRover) -> [usize; 2] {
+        let mut n = [0; 2];
+        for pair in r.world.narrow_phase.contact_pairs_with(r.chassis_collider) {
+            for m in pair.manifolds() {
+                n[usize::from(m.points.is_empty())] += 1;
+            }
+        }
+        n
+    }
+
+    #[test]
+    fn the_chassis_first_test_changes_no_contact_only_the_cost() {
+        // A 15-degree slope of 5 cm triangles with a ridge 0.25 m high
+        // across it. Dropped onto the ridge yawed 29 degrees, the rover
+        // lands on its belly and is driven, wheels turning: the chassis
+        // meets the ridge's triangles and is clear of hundreds of the
+        // slope's. With parry's default dispatcher in place of
+        // ChassisContacts, every step must come out the same.
+        let p = PhysicsParams::default();
+        let rise = 15f64.to_radians().tan();
+        let ground = grid(0.05, |x, y| {
+            let ridge = (x - y * 0.2).abs() < 0.12;
+            x * rise + if ridge { 0.25 } else { 0.0 }
+        });
+        let start = [0.0, 0.0, 0.25, 0.5];
+        let mut fast = PhysicsRover::new(&p, &ground, start, 0.01).expect("rover");
+        let mut plain = PhysicsRover::new(&p, &ground, start, 0.01).expect("rover");
+        plain.use_parry_narrow_phase();
+        let (mut touching, mut clear) = (0, 0);
+        for k in 0..200u64 {
+            let targets = [2.0, -1.0, 2.0, -1.0];
+            fast.step(k * 10_000_000, &targets);
+            plain.step(k * 10_000_000, &targets);
+            assert_eq!(fast.state(), plain.state(), "step {k}");
+            assert_eq!(fast.contact_load(), plain.contact_load(), "step {k}");
+            let [with_points, without] = chassis_manifolds(&fast);
+            touching += usize::from(with_points > 0);
+            clear += without;
+        }
+        // The scene tests what it is meant to: the chassis on the ground
+        // in most steps, and many triangles near it but clear.
+        assert!(touching > 100, "the chassis touched in {touching} steps");
+        assert!(clear > 10_000, "{clear} clear triangles tested");
     }
 }
