@@ -47,6 +47,9 @@ pub struct ExplorationFigures {
     /// refused, and plans driven.
     pub goals_attempted: u64,
     pub goals_unreachable: u64,
+    /// Goals refused for a rock under the body there (turning on the spot
+    /// over it wedges the rover).
+    pub goals_on_rocks: u64,
     pub goals_validated: u64,
     pub goals_rejected_by_sim: u64,
     pub plans_executed: u64,
@@ -101,6 +104,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
         returned_home: matches!(e.mode(), Mode::Finished(_)),
         goals_attempted: e.counters.goals_attempted,
         goals_unreachable: e.counters.goals_unreachable,
+        goals_on_rocks: e.counters.goals_on_rocks,
         goals_validated: e.counters.validated,
         goals_rejected_by_sim: e.counters.rejected_by_sim,
         plans_executed: e.counters.plans_executed,

@@ -426,6 +426,19 @@ impl SurfaceLattice {
         }
     }
 
+    /// How far the tallest bump under node `node`'s inscribed circle
+    /// rises over its support plane, m (to the ground clearance; 0 under
+    /// [`BUMP_FLOOR_M`], or with `bump_weight` 0), once prepared.
+    pub fn bump_m(&self, node: u32) -> Option<f32> {
+        let b = *self.bump.get(node as usize)?;
+        let span = self.trav.params().ground_clearance_m - BUMP_FLOOR_M;
+        Some(if b == 0 {
+            0.0
+        } else {
+            BUMP_FLOOR_M + span * b as f32 / 255.0
+        })
+    }
+
     pub fn is_ready(&self) -> bool {
         self.prep == Prep::Ready
     }

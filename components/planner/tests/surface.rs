@@ -499,3 +499,34 @@ fn the_body_keeps_its_wheels_off_a_decks_open_side() {
         .fold(f64::NEG_INFINITY, f64::max);
     assert!(nearest <= 2.6, "{nearest:.2}");
 }
+
+#[test]
+fn a_goal_over_a_rock_shows_the_rocks_height() {
+    // The 8 cm dome of the test above: what the exploration's goal check
+    // reads under the body at its top, and nothing on the floor round it.
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 10.0), (0.0, 4.0), |x, y| {
+        let r2 = (x - 5.0).powi(2) + (y - 2.0).powi(2);
+        0.08 * (1.0 - r2 / 0.04).max(0.0)
+    });
+    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    trav.build(&m, [1.0, 2.0, 0.0])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let node = |x: f64, y: f64| {
+        trav.node_at(x, y, 0.0, 0.3)
+            .unwrap_or_else(|| panic!("no node at {x}, {y}"))
+    };
+    let (rock, floor) = (node(5.0, 2.0), node(8.0, 2.0));
+    let prims = generate(&PrimitiveSpec::default());
+    let params = SurfaceParams {
+        bump_weight: 3.0,
+        ..SurfaceParams::default()
+    };
+    let mut lat =
+        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
+    lat.prepare_all(&m, (rock, 0))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let over_rock = lat.bump_m(rock).unwrap_or(f32::NAN);
+    assert!((0.06..=0.09).contains(&over_rock), "{over_rock} m");
+    assert_eq!(lat.bump_m(floor), Some(0.0));
+}

@@ -55,6 +55,13 @@ pub struct SimulatorParams {
     pub start_tilted_over_deg: f64,
     /// A plan that took the rover down more than this is driven back too
     /// when asked ([`crate::InternalSim::check_way_back`]), m; 0: never.
+    /// In the lava tube (2026-12-02, with steps charged by their contact
+    /// load) a goal 1.65 m down a 21° slope at the far end left the rover
+    /// in a pit it could not climb out of (stuck on the true surface too)
+    /// and stranded it 186 m from home; checked from 1 m down, the same
+    /// mission came home (coverage 0.98, 6 plans refused as `NoWayBack`).
+    /// Off by default still: the check's extra driving delays verdicts,
+    /// and on the short tube that course stranded the rover.
     pub way_back_drop_m: f64,
     /// A goal reached with a wheel's hub more than this over the ground
     /// its radius reaches, or over none, is refused (`Overhang`), m; 0:

@@ -79,6 +79,10 @@ impl Verdict {
 pub struct SimCounters {
     pub runs: u64,
     pub physics_steps: u64,
+    /// The physics steps' contact load summed (narrow-phase tests and
+    /// contact points, see [`PhysicsRover::contact_load`]): what a batch
+    /// of them cost besides their number.
+    pub contact_load: u64,
     pub points_integrated: u64,
     pub triangles_max: u64,
 }
@@ -486,7 +490,9 @@ impl InternalSim {
                 }
                 Phase::Drive => {
                     let verdict = self.drive();
-                    left = left.saturating_sub(overload_units(self.contact_load()));
+                    let load = self.contact_load();
+                    self.counters.contact_load += (load[1] + load[2]) as u64;
+                    left = left.saturating_sub(overload_units(load));
                     if let Some(v) = verdict {
                         self.verdict = Some(v);
                         self.phase = Phase::Done;

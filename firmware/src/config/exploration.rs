@@ -30,6 +30,10 @@ pub struct ExplorationConfig {
     pub target: Option<[f64; 2]>,
     /// Home is reached within this distance, m.
     pub home_tolerance_m: f64,
+    /// A goal over a rock rising more than this under the body is refused
+    /// before planning, m; 0: off (see
+    /// `speleo_exploration::CandidateParams::max_rock_m`).
+    pub max_goal_rock_m: f64,
 }
 
 impl Default for ExplorationConfig {
@@ -47,6 +51,7 @@ impl Default for ExplorationConfig {
             weight_target: c.weight_target,
             target: None,
             home_tolerance_m: e.home_tolerance_m,
+            max_goal_rock_m: c.max_rock_m,
         }
     }
 }
@@ -92,6 +97,13 @@ impl ExplorationConfig {
             "0..=1000",
         )?;
         range(
+            &k("max_goal_rock_m"),
+            self.max_goal_rock_m,
+            0.0,
+            1.0,
+            "0..=1",
+        )?;
+        range(
             &k("home_tolerance_m"),
             self.home_tolerance_m,
             0.05,
@@ -125,6 +137,7 @@ impl ExplorationConfig {
             min_distance_m: self.min_goal_distance_m,
             weight_unexplored: self.weight_unexplored,
             weight_target: self.weight_target,
+            max_rock_m: self.max_goal_rock_m,
             ..Default::default()
         }
     }

@@ -27,6 +27,8 @@ pub struct ExplorationCounters {
     /// Goals planned to (candidates and points home), and those with no path.
     pub goals_attempted: u64,
     pub goals_unreachable: u64,
+    /// Goals refused before planning for a rock under the body there.
+    pub goals_on_rocks: u64,
     /// Plans handed to the control task.
     pub plans_executed: u64,
     /// Queries that found no plan from where the rover stood (going home)

@@ -728,6 +728,29 @@ impl PlannerTask {
         self.end_query();
     }
 
+    /// Whether the exploration goal being tried stands over a rock (see
+    /// `CandidateParams::max_rock_m`): then it is refused, its place
+    /// rejected, and the next goal tried.
+    fn goal_on_a_rock(&mut self) -> bool {
+        let Some(ex) = self.explore.as_deref_mut() else {
+            return false;
+        };
+        if ex.mode() != Mode::Exploring {
+            return false;
+        }
+        let max_m = ex.scan.params().max_rock_m;
+        let (node, at) = self.query.order[self.query.tried];
+        let rock_m = self.lat.bump_m(node).unwrap_or(0.0) as f64;
+        if max_m <= 0.0 || rock_m <= max_m {
+            return false;
+        }
+        tracing::debug!(x = at[0], y = at[1], rock_m, "a rock under the goal");
+        ex.counters.goals_on_rocks += 1;
+        ex.explorer.reject([at[0], at[1]]);
+        self.phase = self.try_goal(self.query.tried + 1);
+        true
+    }
+
     /// No path to the goal tried (`why`, for the log): the next one, or
     /// the query is over.
     fn goal_failed(&mut self, why: &'static str) {
@@ -1154,6 +1177,9 @@ impl PlannerTask {
             Phase::Prepare => {
                 if self.lat.prepare(bus.surface.serving(), units as usize) {
                     let (start, _) = self.lat.decode(self.query.start_state);
+                    if self.goal_on_a_rock() {
+                        return true;
+                    }
                     if !self.lat.reaches(start) {
                         // No corridor wide enough leads there: not worth
                         // a search to its expansion limit.
@@ -1555,16 +1581,16 @@ mod tests {
     /// from three keyframes along it; the rover at (`rover_x`, 2). Closed,
     /// a wall shuts the corridor's near end.
     fn bus_before_a_ledge(rover_x: f64, closed: bool) -> Box<Bus> {
-        let ground = |x: f64| if x < 10.0 { 0.0 } else { LEDGE_M };
+        let ground = |x: f64, _| if x < 10.0 { 0.0 } else { LEDGE_M };
         let sensors = [[4.0, 2.0, 0.8], [8.0, 2.0, 0.8], [12.0, 2.0, 1.1]];
         bus_in_a_corridor(ground, closed, [rover_x, 2.0, 0.17], &sensors)
     }
 
-    /// A 16 x 4 m corridor along x of floor `ground(x)`, a face wherever
-    /// it steps, seen densely from `sensors`; the rover at `rover`.
-    /// Closed, a wall shuts the corridor's near end.
+    /// A 16 x 4 m corridor along x of floor `ground(x, y)`, a face
+    /// wherever it steps along x, seen densely from `sensors`; the rover at
+    /// `rover`. Closed, a wall shuts the corridor's near end.
     fn bus_in_a_corridor(
-        ground: impl Fn(f64) -> f64,
+        ground: impl Fn(f64, f64) -> f64,
         closed: bool,
         rover: [f64; 3],
         sensors: &[[f64; 3]],
@@ -1576,7 +1602,7 @@ mod tests {
         for i in 0..320 {
             for j in 0..80 {
                 let (x, y) = (i as f64 * 0.05 + 0.025, j as f64 * 0.05 + 0.025);
-                let z = ground(x);
+                let z = ground(x, y);
                 pts.push([x, y, z]);
                 // Walls along both sides: a corridor open at its ends.
                 if j == 0 || j == 79 {
@@ -1590,7 +1616,7 @@ mod tests {
                     }
                 }
                 // The face between this column and the next.
-                let next = ground(x + 0.05);
+                let next = ground(x + 0.05, y);
                 let mut h = z.min(next) + 0.05;
                 while h < z.max(next) {
                     pts.push([x + 0.025, y, h]);
@@ -1757,7 +1783,7 @@ mod tests {
         use speleo_control::StopReason;
         // On a shelf whose edge is 0.4 m behind the rover, a 0.8 m drop
         // under it; the rover faces away from it and is stuck.
-        let ground = |x: f64| if x < 9.3 { -0.8 } else { 0.0 };
+        let ground = |x: f64, _| if x < 9.3 { -0.8 } else { 0.0 };
         let sensors = [[6.0, 2.0, 0.0], [10.0, 2.0, 0.8], [13.0, 2.0, 0.8]];
         let mut bus = bus_in_a_corridor(ground, false, [9.7, 2.0, 0.17], &sensors);
         let cfg = PlannerConfig::default();
@@ -1892,6 +1918,65 @@ mod tests {
         let again = ledge_mission(120);
         assert_eq!(again.2 .0, frame1, "the verdicts come at the same frames");
         assert_eq!(again.1.poses, plan1.poses);
+    }
+
+    /// Exploring a flat corridor toward its far end from x = 3 m, with a
+    /// dome `rock` m tall (0.4 m across) at `at` on the floor: the
+    /// counters and the first plan marked to be driven.
+    fn first_plan_with_a_rock(rock: f64, at: [f64; 2]) -> (ExplorationCounters, PlanMsg) {
+        let ground = |x: f64, y: f64| {
+            let r2 = (x - at[0]).powi(2) + (y - at[1]).powi(2);
+            rock * (1.0 - r2 / 0.04).max(0.0)
+        };
+        let sensors = [[2.0, 2.0, 0.8], [5.0, 2.0, 0.8], [8.0, 2.0, 0.8]];
+        let mut bus = bus_in_a_corridor(ground, true, [3.0, 2.0, 0.17], &sensors);
+        let cfg = PlannerConfig::default();
+        let prims = speleo_planner::primitives::generate(&Default::default());
+        let e = crate::config::ExplorationConfig {
+            weight_target: 1.0,
+            max_goal_rock_m: 0.06,
+            ..Default::default()
+        };
+        let ex = Exploration::new(
+            e.explorer_params(),
+            e.candidate_params(),
+            Some([40.0, 2.0]),
+            0.0,
+        );
+        let mut t = PlannerTask::new(&cfg, &prims, 0.1, &[], false, 0.17)
+            .unwrap_or_else(|e| panic!("{e}"))
+            .with_exploration(ex);
+        for f in 0..100_000 {
+            t.step(&mut bus, &cx(f), 32);
+            if bus.plan.get().is_some_and(|p| p.value.execute) {
+                break;
+            }
+        }
+        let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
+        (ex.counters, published(&bus))
+    }
+
+    #[test]
+    fn a_goal_over_a_rock_is_not_driven_to_and_another_is_chosen() {
+        let (c, plan) = first_plan_with_a_rock(0.0, [0.0, 0.0]);
+        assert_eq!(c.goals_on_rocks, 0, "{c:?}");
+        let end = *plan.poses.last().unwrap_or_else(|| panic!("no poses"));
+        let rock_at = [end[0] as f64, end[1] as f64];
+        // A 4 cm one there is the map's roughness: driven to.
+        let (c, low) = first_plan_with_a_rock(0.04, rock_at);
+        assert_eq!(c.goals_on_rocks, 0, "{c:?}");
+        let low_end = low.poses.last().unwrap_or_else(|| panic!("no poses"));
+        assert_eq!(low_end[..2], end[..2]);
+        // The same corridor with an 8 cm rock where that plan ended: under
+        // the body's 12 cm clearance, so the map lets the rover over it.
+        let (c, plan) = first_plan_with_a_rock(0.08, rock_at);
+        assert_eq!(c.goals_on_rocks, 1, "{c:?}");
+        assert!(plan.execute, "{plan:?}");
+        let other = *plan.poses.last().unwrap_or_else(|| panic!("no poses"));
+        assert!(
+            (other[0] - end[0]).hypot(other[1] - end[1]) > 1.0,
+            "{other:?} by the rock at {end:?}"
+        );
     }
 
     /// The far end of the floor as the target, and perhaps a place the

@@ -33,7 +33,7 @@ pub struct SimWorker {
     /// The simulator's physics step, s.
     dt_s: f64,
     /// The work the batch out began in, and the physics steps before it.
-    out: Option<(&'static str, u64)>,
+    out: Option<(&'static str, u64, u64)>,
     /// Wall time of each batch on the worker, and its CPU time.
     pub batch_times: Histogram,
     pub batch_cpu_times: Histogram,
@@ -74,9 +74,9 @@ impl SimWorker {
             return Err(sim);
         }
         let work = sim.work();
-        let steps = sim.counters.physics_steps;
+        let (steps, load) = (sim.counters.physics_steps, sim.counters.contact_load);
         self.cp.lend(sim, self.units)?;
-        self.out = Some((work, steps));
+        self.out = Some((work, steps, load));
         Ok(())
     }
 
@@ -103,18 +103,28 @@ impl SimWorker {
         if b.elapsed_ns > budget_ns {
             self.counters.overruns += 1;
         }
-        if let Some((work, steps)) = self.out.take() {
+        if let Some((work, steps, load)) = self.out.take() {
             let steps = sim.counters.physics_steps - steps;
+            let load = sim.counters.contact_load - load;
             if work == "drive" {
                 self.counters.drive_batches += 1;
                 self.counters.drive_steps += steps;
             }
+            tracing::trace!(
+                work,
+                steps,
+                load,
+                cpu_us = b.cpu_ns / 1000,
+                wall_us = b.elapsed_ns / 1000,
+                "simulator batch"
+            );
             if b.cpu_ns > budget_ns {
                 // Which work, and how far it got: what the units missed.
                 tracing::debug!(
                     work,
                     next = sim.work(),
                     steps,
+                    load,
                     units = self.units,
                     cpu_us = b.cpu_ns / 1000,
                     wall_us = b.elapsed_ns / 1000,
