@@ -64,6 +64,17 @@ pub struct SurfaceParams {
     /// tube's rover stuck on a 0.135 m rock 77 m in); where there is room
     /// around it, the path goes round (0: off).
     pub bump_weight: f64,
+    /// Rocks the body does not pass over: a node with ground under the
+    /// body's inscribed circle higher than this over the plane of the
+    /// ground on the ring round it, where the wheels stand (m; see
+    /// [`SurfaceLattice::rock_m`]), is not entered, except near the start
+    /// (0: off). Measured over the node's support plane, as the bump cost
+    /// does, a rock reads about half its height: the plane of a node on
+    /// its flank or top is fitted through the rock. In the simulated lava
+    /// tube the rover stuck high-centred on boulders 0.15-0.19 m tall that
+    /// read 0.066-0.083 m so, under the clearance, and the bump cost let
+    /// paths cross them where going round was long.
+    pub max_bump_m: f64,
     /// Edge cost: a primitive's time is multiplied by `1 + weight x (1 -
     /// d / reach)`, `d` the least distance from its path to a drop the map
     /// has seen (a cell with nothing near the path node's support plane
@@ -102,11 +113,45 @@ impl Default for SurfaceParams {
             turn_slope_free_deg: 8.0,
             turn_slope_weight_per_deg: 0.5,
             bump_weight: 0.0,
+            max_bump_m: 0.0,
             edge_weight: 0.0,
             edge_reach_m: 0.8,
             body_drop_cells: 0,
         }
     }
+}
+
+/// The plane `r = a + b dx + c dy` fitted by least squares to the
+/// sums `m` (see `rock_under`), as `[a, b, c]`; the mean height, level,
+/// where the ring's cells do not fix a tilt (fewer than three, or in a
+/// line), and 0 where there are none.
+fn ring_plane(m: &[f64; 9]) -> [f64; 3] {
+    let [n, sx, sy, sxx, sxy, syy, sr, srx, sry] = *m;
+    if n < 1.0 {
+        return [0.0; 3];
+    }
+    let det3 = |c0: [f64; 3], c1: [f64; 3], c2: [f64; 3]| {
+        c0[0] * (c1[1] * c2[2] - c2[1] * c1[2]) - c1[0] * (c0[1] * c2[2] - c2[1] * c0[2])
+            + c2[0] * (c0[1] * c1[2] - c1[1] * c0[2])
+    };
+    // Cramer's rule on the normal equations, by columns.
+    let (k0, k1, k2, rhs) = ([n, sx, sy], [sx, sxx, sxy], [sy, sxy, syy], [sr, srx, sry]);
+    let d = det3(k0, k1, k2);
+    if n < 3.0 || d.abs() < 1e-9 * n * n * n {
+        return [sr / n, 0.0, 0.0];
+    }
+    [
+        det3(rhs, k1, k2) / d,
+        det3(k0, rhs, k2) / d,
+        det3(k0, k1, rhs) / d,
+    ]
+}
+
+/// A bump of `m` metres over the support plane in the lattice's units:
+/// 0 at [`BUMP_FLOOR_M`] to 255 at the ground clearance `clearance_m`.
+fn bump_units(m: f32, clearance_m: f32) -> u8 {
+    let span = clearance_m - BUMP_FLOOR_M;
+    (255.0 * ((m - BUMP_FLOOR_M) / span).clamp(0.0, 1.0)).round() as u8
 }
 
 /// The 8 neighbour moves in `speleo_traversability::map::NEIGHBOURS`
@@ -175,6 +220,11 @@ pub struct SurfaceLattice {
     /// inscribed circle, as a fraction of the way from [`BUMP_FLOOR_M`]
     /// to the ground clearance, in 1/255 (0 with `bump_weight` 0).
     bump: Vec<u8>,
+    /// Per node: the rock under the body (see [`SurfaceLattice::rock_m`])
+    /// in `bump`'s units (0 with `max_bump_m` 0).
+    rock: Vec<u8>,
+    /// The highest rock a path may pass, in `bump`'s units (255: any).
+    max_bump: u8,
     /// Squared inscribed radius of the body, cells: a node with something
     /// seen nearer collides in every orientation.
     inscribed_d2: f64,
@@ -222,6 +272,13 @@ const ROOM_PER_UNIT: usize = 12;
 /// a node costs about half as much again (`speleo plan --world garage`:
 /// 12.7 us a unit of 12 without, 19-20 us with).
 const ROOM_PER_UNIT_EDGES: usize = 8;
+/// With the rock limit on, each node's inscribed circle and the ring
+/// round it are read again: a node costs about three quarters as much
+/// again (a 20,000-node floor in the planner's tests: 25 ms a
+/// preparation without, 40 ms with).
+const ROOM_PER_UNIT_ROCKS: usize = 7;
+/// With both.
+const ROOM_PER_UNIT_EDGES_ROCKS: usize = 5;
 const POPS_PER_UNIT: usize = 96;
 
 /// Occupied intervals kept per cell; a cell with more patches has the rest
@@ -271,6 +328,8 @@ impl SurfaceLattice {
             edge_d2: Vec::with_capacity(n),
             rim_d2: Vec::with_capacity(n),
             bump: Vec::with_capacity(n),
+            rock: Vec::with_capacity(n),
+            max_bump: u8::MAX,
             inscribed_d2,
             drop_tol,
             escape: None,
@@ -370,6 +429,15 @@ impl SurfaceLattice {
         self.edge_d2.clear();
         self.rim_d2.clear();
         self.bump.clear();
+        self.rock.clear();
+        self.max_bump = if self.p.max_bump_m > 0.0 {
+            bump_units(
+                self.p.max_bump_m as f32,
+                self.trav.params().ground_clearance_m,
+            )
+        } else {
+            u8::MAX
+        };
         self.heuristic.clear();
         self.heuristic.resize(n, INFINITE_COST);
         self.open.clear();
@@ -388,10 +456,11 @@ impl SurfaceLattice {
                 Prep::Solid(c) => self.copy_solid(mls, c),
                 Prep::Clear(i) => {
                     let mut next = Prep::Clear(i);
-                    let per_unit = if self.p.edge_weight > 0.0 {
-                        ROOM_PER_UNIT_EDGES
-                    } else {
-                        ROOM_PER_UNIT
+                    let per_unit = match (self.p.edge_weight > 0.0, self.p.max_bump_m > 0.0) {
+                        (false, false) => ROOM_PER_UNIT,
+                        (true, false) => ROOM_PER_UNIT_EDGES,
+                        (false, true) => ROOM_PER_UNIT_ROCKS,
+                        (true, true) => ROOM_PER_UNIT_EDGES_ROCKS,
                     };
                     for k in i..i + per_unit {
                         next = self.check_circle(k);
@@ -426,17 +495,50 @@ impl SurfaceLattice {
         }
     }
 
+    /// How far the highest ground under node `node`'s inscribed circle
+    /// rises over the plane fitted to the ground on a ring a cell wide
+    /// round it, where the wheels stand, m (to the ground clearance; 0
+    /// under [`BUMP_FLOOR_M`], or with `max_bump_m` 0), once prepared:
+    /// what takes away the body's clearance. Unlike the bump, it does not
+    /// read a rock the node stands on as ground, nor a tube's floor
+    /// curving up into its wall (the ring's plane tilts with it) as a
+    /// rock; a step between the wheels reads about half its height, a
+    /// crest the sag of the slopes' chord under it.
+    pub fn rock_m(&self, node: u32) -> Option<f32> {
+        let b = *self.rock.get(node as usize)?;
+        Some(self.units_m(b))
+    }
+
+    /// How many of the graph's nodes have a rock under the body higher
+    /// than `max_bump_m`, once prepared.
+    pub fn rocky_nodes(&self) -> usize {
+        self.rock.iter().filter(|&&r| r > self.max_bump).count()
+    }
+
+    /// Whether node `node` has a rock under the body higher than
+    /// `max_bump_m` (and is passed only near the start), once prepared.
+    pub fn over_a_rock(&self, node: u32) -> bool {
+        self.rock
+            .get(node as usize)
+            .is_some_and(|&r| r > self.max_bump)
+    }
+
     /// How far the tallest bump under node `node`'s inscribed circle
     /// rises over its support plane, m (to the ground clearance; 0 under
     /// [`BUMP_FLOOR_M`], or with `bump_weight` 0), once prepared.
     pub fn bump_m(&self, node: u32) -> Option<f32> {
         let b = *self.bump.get(node as usize)?;
+        Some(self.units_m(b))
+    }
+
+    /// A bump in the lattice's units in metres ([`bump_units`]'s inverse).
+    fn units_m(&self, b: u8) -> f32 {
         let span = self.trav.params().ground_clearance_m - BUMP_FLOOR_M;
-        Some(if b == 0 {
+        if b == 0 {
             0.0
         } else {
             BUMP_FLOOR_M + span * b as f32 / 255.0
-        })
+        }
     }
 
     pub fn is_ready(&self) -> bool {
@@ -607,7 +709,13 @@ impl SurfaceLattice {
         } else {
             0
         };
+        let rock = if free && self.p.max_bump_m > 0.0 {
+            self.rock_under(&nd)
+        } else {
+            0
+        };
         self.bump.push(bump);
+        self.rock.push(rock);
         self.body_free.push(free);
         self.clear.push(clear);
         self.blocked_d2.push(nearest);
@@ -621,7 +729,6 @@ impl SurfaceLattice {
     /// between the support plane and the ground clearance.
     fn bump_under(&self, nd: &Node) -> u8 {
         let tp = self.trav.params();
-        let span = tp.ground_clearance_m - BUMP_FLOOR_M;
         let reach = self.inscribed_d2.sqrt().floor() as i32;
         let mut tallest = 0.0f32;
         for dy in -reach..=reach {
@@ -645,7 +752,74 @@ impl SurfaceLattice {
                 }
             }
         }
-        (255.0 * (tallest / span).clamp(0.0, 1.0)).round() as u8
+        bump_units(BUMP_FLOOR_M + tallest, tp.ground_clearance_m)
+    }
+
+    /// The rock under node `nd`'s body (see [`SurfaceLattice::rock_m`]),
+    /// in `bump`'s units.
+    fn rock_under(&self, nd: &Node) -> u8 {
+        let inner = self.inscribed_d2;
+        // The ring: a cell wide, round the inscribed circle.
+        let outer = (inner.sqrt() + 1.0).powi(2);
+        let reach = outer.sqrt().floor() as i32;
+        // The plane of the ring's ground, by least squares in the node
+        // plane's frame: sums of 1, dx, dy, dx^2, dx dy, dy^2, r, r dx,
+        // r dy.
+        let mut m = [0.0f64; 9];
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                let d2 = (dx * dx + dy * dy) as f64;
+                if d2 <= inner || d2 > outer {
+                    continue;
+                }
+                let Some(r) = self.ground_over_plane(nd, dx, dy) else {
+                    continue;
+                };
+                let (x, y, r) = (dx as f64, dy as f64, r as f64);
+                for (k, v) in [1.0, x, y, x * x, x * y, y * y, r, r * x, r * y]
+                    .into_iter()
+                    .enumerate()
+                {
+                    m[k] += v;
+                }
+            }
+        }
+        let [a, b, c] = ring_plane(&m);
+        let mut rock = 0.0f64;
+        let reach = inner.sqrt().floor() as i32;
+        for dy in -reach..=reach {
+            for dx in -reach..=reach {
+                if (dx * dx + dy * dy) as f64 > inner {
+                    continue;
+                }
+                if let Some(r) = self.ground_over_plane(nd, dx, dy) {
+                    rock = rock.max(r as f64 - (a + b * dx as f64 + c * dy as f64));
+                }
+            }
+        }
+        bump_units(rock as f32, self.trav.params().ground_clearance_m)
+    }
+
+    /// The ground in the cell at `(dx, dy)` from node `nd` over its
+    /// support plane, m: the cell's highest top near the plane (what
+    /// stands into the body's band counts to the band's foot); `None`
+    /// where nothing was seen there.
+    fn ground_over_plane(&self, nd: &Node, dx: i32, dy: i32) -> Option<f32> {
+        let (ix, iy) = (nd.ix + dx, nd.iy + dy);
+        let (gx, gy) = (ix - self.origin.0, iy - self.origin.1);
+        if gx < 0 || gy < 0 || gx as usize >= self.dims.0 || gy as usize >= self.dims.1 {
+            return None;
+        }
+        let ground = self.plane_z(nd, ix, iy);
+        let (lo, hi) = (
+            ground - self.drop_tol,
+            ground + self.trav.params().ground_clearance_m,
+        );
+        let row = &self.solid[gy as usize * self.dims.0 + gx as usize];
+        intervals(row)
+            .filter(|iv| iv[1] > lo && iv[0] < hi)
+            .map(|iv| iv[1].min(hi) - ground)
+            .reduce(f32::max)
     }
 
     /// Whether a primitive may pass node `j` (drivable, with room for the
@@ -654,7 +828,8 @@ impl SurfaceLattice {
     fn enterable(&self, j: u32) -> bool {
         let n = &self.trav.nodes()[j as usize];
         let crowded = (self.blocked_d2[j as usize] as f64) < self.inscribed_d2;
-        n.class.is_drivable() && (!crowded || self.near_escape(n))
+        let rocky = self.rock[j as usize] > self.max_bump;
+        n.class.is_drivable() && (!(crowded || rocky) || self.near_escape(n))
     }
 
     /// Whether a path from `node` to the goal may exist, once prepared:

@@ -195,12 +195,21 @@ fn a_level_nothing_leads_to_is_not_planned_to() {
 
 #[test]
 fn a_lattice_prepared_in_slices_equals_one_prepared_at_once() {
-    // With the edge term too, whose nodes are checked fewer to a unit.
+    // With the edge term and the rock limit too, whose nodes are checked
+    // fewer to a unit.
     let edges = SurfaceParams {
         edge_weight: 2.0,
         ..SurfaceParams::default()
     };
-    for params in [SurfaceParams::default(), edges] {
+    let rocks = SurfaceParams {
+        max_bump_m: 0.06,
+        ..SurfaceParams::default()
+    };
+    let both = SurfaceParams {
+        max_bump_m: 0.06,
+        ..edges.clone()
+    };
+    for params in [SurfaceParams::default(), edges, rocks, both] {
         prepared_in_slices_equals_prepared_at_once(&params);
     }
 }
@@ -279,6 +288,17 @@ fn across_the_floor(m: &MlsMap, wary: SurfaceParams) -> (Plan, Plan, u32, u32) {
     (plain, wary, c0, c1)
 }
 
+/// A floor 10 m long over `y`, with a rock `height` tall and 0.4 m
+/// across at (5, 2): a dome seen from above.
+fn floor_with_a_dome(y: (f64, f64), height: f64) -> MlsMap {
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 10.0), y, |x, y| {
+        let r2 = (x - 5.0).powi(2) + (y - 2.0).powi(2);
+        height * (1.0 - r2 / 0.04).max(0.0)
+    });
+    m
+}
+
 /// Least distance from `c` (x, y) to the path's segments, m.
 fn closest_approach(p: &Plan, c: [f64; 2]) -> f64 {
     p.path
@@ -325,11 +345,7 @@ fn a_bump_weight_takes_the_path_round_a_rock_the_map_lets_it_cross() {
     // A rock 0.4 m across and 8 cm tall on the straight line, a dome
     // seen from above: under the body's clearance and no more than a step
     // between cells, so the map lets the rover over it.
-    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
-    surface(&mut m, (0.0, 10.0), (0.0, 4.0), |x, y| {
-        let r2 = (x - 5.0).powi(2) + (y - 2.0).powi(2);
-        0.08 * (1.0 - r2 / 0.04).max(0.0)
-    });
+    let m = floor_with_a_dome((0.0, 4.0), 0.08);
     let (start, goal) = ([1.0, 2.0, 0.0, 0.0], [9.0, 2.0, 0.0, 0.0]);
     let closest = |p: &Plan| closest_approach(p, [5.0, 2.0]);
     let (plain, wary, c0, c1) = across_the_floor(
@@ -504,11 +520,7 @@ fn the_body_keeps_its_wheels_off_a_decks_open_side() {
 fn a_goal_over_a_rock_shows_the_rocks_height() {
     // The 8 cm dome of the test above: what the exploration's goal check
     // reads under the body at its top, and nothing on the floor round it.
-    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
-    surface(&mut m, (0.0, 10.0), (0.0, 4.0), |x, y| {
-        let r2 = (x - 5.0).powi(2) + (y - 2.0).powi(2);
-        0.08 * (1.0 - r2 / 0.04).max(0.0)
-    });
+    let m = floor_with_a_dome((0.0, 4.0), 0.08);
     let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
     trav.build(&m, [1.0, 2.0, 0.0])
         .unwrap_or_else(|e| panic!("{e}"));
@@ -529,4 +541,100 @@ fn a_goal_over_a_rock_shows_the_rocks_height() {
     let over_rock = lat.bump_m(rock).unwrap_or(f32::NAN);
     assert!((0.06..=0.09).contains(&over_rock), "{over_rock} m");
     assert_eq!(lat.bump_m(floor), Some(0.0));
+    // Counted from the floor round the body, the rock reads its height
+    // from its top too, where the node's plane passes through it.
+    let params = SurfaceParams {
+        max_bump_m: 0.1,
+        ..SurfaceParams::default()
+    };
+    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    trav.build(&m, [1.0, 2.0, 0.0])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let mut lat =
+        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
+    lat.prepare_all(&m, (floor, 0))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let from_floor = lat.rock_m(rock).unwrap_or(f32::NAN);
+    assert!((0.07..=0.09).contains(&from_floor), "{from_floor} m");
+    assert_eq!(lat.rock_m(floor), Some(0.0));
+}
+
+#[test]
+fn a_rock_over_the_bump_limit_is_gone_round_or_not_passed_at_all() {
+    // The 8 cm dome again, with no bump cost: only the limit keeps the
+    // body off it.
+    let limit = SurfaceParams {
+        max_bump_m: 0.05,
+        ..SurfaceParams::default()
+    };
+    let (start, goal) = ([1.0, 2.0, 0.0, 0.0], [9.0, 2.0, 0.0, 0.0]);
+    let wide = floor_with_a_dome((0.0, 4.0), 0.08);
+    let plain = plan(&wide, start, goal);
+    let limited = plan_with(&wide, start, goal, limit.clone());
+    assert!(plain.cost.is_some() && limited.cost.is_some(), "no plan");
+    let closest = |p: &Plan| closest_approach(p, [5.0, 2.0]);
+    assert!(closest(&plain) < 0.2, "{:.2} m", closest(&plain));
+    // The body's inscribed circle (0.35 m) clear of where the dome rises
+    // more than the limit.
+    assert!(closest(&limited) > 0.4, "{:.2} m", closest(&limited));
+    // No detour for a rock under the limit.
+    let under = floor_with_a_dome((0.0, 4.0), 0.03);
+    let over_low_rock = plan_with(&under, start, goal, limit.clone());
+    assert!(
+        closest(&over_low_rock) < 0.2,
+        "{:.2} m",
+        closest(&over_low_rock)
+    );
+    // In a corridor 0.8 m wide there is no way round: no plan, where the
+    // map alone lets the rover over.
+    let narrow = floor_with_a_dome((1.6, 2.4), 0.08);
+    assert!(plan(&narrow, start, goal).cost.is_some(), "no plan");
+    assert_eq!(plan_with(&narrow, start, goal, limit).cost, None);
+}
+
+#[test]
+fn a_floor_curving_up_into_a_wall_is_no_rock() {
+    // A tube's floor: level in the middle, rising ever more steeply
+    // towards both sides. Over a node's support plane the rise under the
+    // body's side reads as a bump; over the plane of the ground the
+    // wheels stand on it is none.
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 10.0), (0.0, 4.0), |_, y| {
+        let side = ((y - 2.0).abs() - 0.6).max(0.0);
+        0.8 * side * side
+    });
+    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    trav.build(&m, [1.0, 2.0, 0.0])
+        .unwrap_or_else(|e| panic!("{e}"));
+    let across: Vec<(f64, u32)> = (0..16)
+        .map(|k| 2.0 + 0.1 * k as f64)
+        .filter_map(|y| {
+            let z = 0.8 * (y - 2.6).max(0.0).powi(2);
+            Some((y, trav.node_at(5.0, y, z, 0.3)?))
+        })
+        .collect();
+    let floor = across[0].1;
+    let prims = generate(&PrimitiveSpec::default());
+    let params = SurfaceParams {
+        bump_weight: 1.0,
+        max_bump_m: 0.06,
+        ..SurfaceParams::default()
+    };
+    let mut lat =
+        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
+    lat.prepare_all(&m, (floor, 0))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let most = |f: &dyn Fn(u32) -> Option<f32>| {
+        across
+            .iter()
+            .map(|&(_, j)| f(j).unwrap_or(f32::NAN))
+            .fold(0.0f32, f32::max)
+    };
+    // Nodes up to 0.3 m into the rise (steeper, the slope refuses them).
+    assert!(across.len() >= 9, "{} nodes across", across.len());
+    let bump = most(&|j| lat.bump_m(j));
+    let rock = most(&|j| lat.rock_m(j));
+    assert!(bump > 0.08, "bump {bump} m");
+    assert_eq!(rock, 0.0);
+    assert!(across.iter().all(|&(_, j)| !lat.over_a_rock(j)));
 }

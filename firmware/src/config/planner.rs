@@ -61,6 +61,11 @@ pub struct PlannerConfig {
     /// the planner README); 0: off. At 10 a rock 0.1 m tall costs a path
     /// 6.6 times its travel time.
     pub bump_weight: f64,
+    /// A node with a bump under the body higher than this (m over its
+    /// support plane, as for `bump_weight`) is not passed, except near
+    /// the start; 0: off. The map holds small boulders at about half
+    /// their height (the planner README).
+    pub max_bump_m: f64,
     /// Extra cost near a drop the map has seen (a ramp's open side, a
     /// ledge's rim): travel time times `1 + weight x (1 - d / reach)`,
     /// `d` the least distance from the path to the drop within
@@ -112,6 +117,7 @@ impl Default for PlannerConfig {
             body_width_m: s.body_width_m + 2.0 * BODY_MARGIN_M,
             clearance_weight: s.clearance_weight,
             bump_weight: 10.0,
+            max_bump_m: 0.0,
             edge_weight: s.edge_weight,
             edge_reach_m: s.edge_reach_m,
             body_drop_cells: s.body_drop_cells,
@@ -228,6 +234,14 @@ impl PlannerConfig {
         ] {
             range(k, v, 0.0, 100.0, "0..=100")?;
         }
+        // Over the ground clearance the body band refuses the node anyway.
+        range(
+            "planner.max_bump_m",
+            self.max_bump_m,
+            0.0,
+            self.ground_clearance_m,
+            "0..=ground_clearance_m",
+        )?;
         range(
             "planner.drop_clearance_m",
             self.drop_clearance_m,
@@ -282,6 +296,7 @@ impl PlannerConfig {
             body_width_m: self.body_width_m,
             clearance_weight: self.clearance_weight,
             bump_weight: self.bump_weight,
+            max_bump_m: self.max_bump_m,
             edge_weight: self.edge_weight,
             edge_reach_m: self.edge_reach_m,
             body_drop_cells: self.body_drop_cells,

@@ -729,8 +729,9 @@ impl PlannerTask {
     }
 
     /// Whether the exploration goal being tried stands over a rock (see
-    /// `CandidateParams::max_rock_m`): then it is refused, its place
-    /// rejected, and the next goal tried.
+    /// `CandidateParams::max_rock_m`, and the planner's `max_bump_m`, which
+    /// no path would pass): then it is refused, its place rejected, and
+    /// the next goal tried.
     fn goal_on_a_rock(&mut self) -> bool {
         let Some(ex) = self.explore.as_deref_mut() else {
             return false;
@@ -740,11 +741,19 @@ impl PlannerTask {
         }
         let max_m = ex.scan.params().max_rock_m;
         let (node, at) = self.query.order[self.query.tried];
-        let rock_m = self.lat.bump_m(node).unwrap_or(0.0) as f64;
-        if max_m <= 0.0 || rock_m <= max_m {
+        let bump_m = self.lat.bump_m(node).unwrap_or(0.0) as f64;
+        let rock_m = self.lat.rock_m(node).unwrap_or(0.0) as f64;
+        let on_bump = max_m > 0.0 && bump_m > max_m;
+        if !on_bump && !self.lat.over_a_rock(node) {
             return false;
         }
-        tracing::debug!(x = at[0], y = at[1], rock_m, "a rock under the goal");
+        tracing::debug!(
+            x = at[0],
+            y = at[1],
+            bump_m,
+            rock_m,
+            "a rock under the goal"
+        );
         ex.counters.goals_on_rocks += 1;
         ex.explorer.reject([at[0], at[1]]);
         self.phase = self.try_goal(self.query.tried + 1);
@@ -1177,6 +1186,13 @@ impl PlannerTask {
             Phase::Prepare => {
                 if self.lat.prepare(bus.surface.serving(), units as usize) {
                     let (start, _) = self.lat.decode(self.query.start_state);
+                    if tracing::enabled!(tracing::Level::TRACE) {
+                        tracing::trace!(
+                            nodes = self.lat.trav().nodes().len(),
+                            over_rocks = self.lat.rocky_nodes(),
+                            "lattice prepared"
+                        );
+                    }
                     if self.goal_on_a_rock() {
                         return true;
                     }
@@ -1923,18 +1939,33 @@ mod tests {
     /// Exploring a flat corridor toward its far end from x = 3 m, with a
     /// dome `rock` m tall (0.4 m across) at `at` on the floor: the
     /// counters and the first plan marked to be driven.
-    fn first_plan_with_a_rock(rock: f64, at: [f64; 2]) -> (ExplorationCounters, PlanMsg) {
+    /// The first plan driven in a corridor with a dome `rock` tall at
+    /// `at`, with the exploration's goal rule at 6 cm, or with the
+    /// planner's rock limit at 6 cm (`planner_limit`) instead.
+    fn first_plan_with_a_rock(
+        rock: f64,
+        at: [f64; 2],
+        planner_limit: bool,
+    ) -> (ExplorationCounters, PlanMsg) {
         let ground = |x: f64, y: f64| {
             let r2 = (x - at[0]).powi(2) + (y - at[1]).powi(2);
             rock * (1.0 - r2 / 0.04).max(0.0)
         };
         let sensors = [[2.0, 2.0, 0.8], [5.0, 2.0, 0.8], [8.0, 2.0, 0.8]];
         let mut bus = bus_in_a_corridor(ground, true, [3.0, 2.0, 0.17], &sensors);
-        let cfg = PlannerConfig::default();
+        let (goal_rule, limit) = if planner_limit {
+            (0.0, 0.06)
+        } else {
+            (0.06, 0.0)
+        };
+        let cfg = PlannerConfig {
+            max_bump_m: limit,
+            ..PlannerConfig::default()
+        };
         let prims = speleo_planner::primitives::generate(&Default::default());
         let e = crate::config::ExplorationConfig {
             weight_target: 1.0,
-            max_goal_rock_m: 0.06,
+            max_goal_rock_m: goal_rule,
             ..Default::default()
         };
         let ex = Exploration::new(
@@ -1958,18 +1989,24 @@ mod tests {
 
     #[test]
     fn a_goal_over_a_rock_is_not_driven_to_and_another_is_chosen() {
-        let (c, plan) = first_plan_with_a_rock(0.0, [0.0, 0.0]);
+        for planner_limit in [false, true] {
+            a_goal_over_a_rock_is_refused(planner_limit);
+        }
+    }
+
+    fn a_goal_over_a_rock_is_refused(planner_limit: bool) {
+        let (c, plan) = first_plan_with_a_rock(0.0, [0.0, 0.0], planner_limit);
         assert_eq!(c.goals_on_rocks, 0, "{c:?}");
         let end = *plan.poses.last().unwrap_or_else(|| panic!("no poses"));
         let rock_at = [end[0] as f64, end[1] as f64];
         // A 4 cm one there is the map's roughness: driven to.
-        let (c, low) = first_plan_with_a_rock(0.04, rock_at);
+        let (c, low) = first_plan_with_a_rock(0.04, rock_at, planner_limit);
         assert_eq!(c.goals_on_rocks, 0, "{c:?}");
         let low_end = low.poses.last().unwrap_or_else(|| panic!("no poses"));
         assert_eq!(low_end[..2], end[..2]);
         // The same corridor with an 8 cm rock where that plan ended: under
         // the body's 12 cm clearance, so the map lets the rover over it.
-        let (c, plan) = first_plan_with_a_rock(0.08, rock_at);
+        let (c, plan) = first_plan_with_a_rock(0.08, rock_at, planner_limit);
         assert_eq!(c.goals_on_rocks, 1, "{c:?}");
         assert!(plan.execute, "{plan:?}");
         let other = *plan.poses.last().unwrap_or_else(|| panic!("no poses"));
@@ -1977,6 +2014,11 @@ mod tests {
             (other[0] - end[0]).hypot(other[1] - end[1]) > 1.0,
             "{other:?} by the rock at {end:?}"
         );
+        if planner_limit {
+            // Nor does the body pass over it on the way.
+            let clear = nearest_m(&plan, rock_at);
+            assert!(clear > 0.35, "{clear} m from the rock");
+        }
     }
 
     /// The far end of the floor as the target, and perhaps a place the
