@@ -55,15 +55,18 @@ pub struct CandidateParams {
     /// ahead that one short drive shows.
     pub crest_reach_m: f64,
     pub crest_min_distance_m: f64,
-    /// A goal with a rock rising more than this over its ground under the
-    /// body (the planner's bump over the goal node's support plane) is not
-    /// driven to, m. The rover stops at a goal and turns there,
-    /// and turning on the spot over a rock it straddles wedges it: in the
-    /// lava tube two goals over rocks the map held at 0.066 and 0.083 m
-    /// (truly 0.15-0.19 m over the floor round them, 0.26 m across)
-    /// stuck the rover, the second for good, and 26 other goals of the
-    /// same run had no bump over 0.04 m. 0: off (the default for now: it
-    /// changes the missions' courses, and has been measured on one).
+    /// A goal with a rock rising more than this under the body is not
+    /// driven to, m: the planner's `SurfaceLattice::rock_m`, the highest
+    /// ground under the body's inscribed circle over the plane of the
+    /// ground round it where the wheels stand. The rover stops at a goal
+    /// and turns there, and turning on the spot over a rock it straddles
+    /// wedges it: in the lava tube two goals over rocks the map held at
+    /// 0.066 and 0.083 m over the goal node's own support plane (truly
+    /// 0.15-0.19 m over the floor round them, 0.26 m across) stuck the
+    /// rover, the second for good, and 26 other goals of the same run
+    /// had no bump over 0.04 m; over the ring's plane such boulders read
+    /// 0.12 m. 0: off (the default for now: it changes the missions'
+    /// courses, and has been measured on few).
     pub max_rock_m: f64,
 }
 

@@ -498,14 +498,21 @@ impl SurfaceLattice {
     /// How far the highest ground under node `node`'s inscribed circle
     /// rises over the plane fitted to the ground on a ring a cell wide
     /// round it, where the wheels stand, m (to the ground clearance; 0
-    /// under [`BUMP_FLOOR_M`], or with `max_bump_m` 0), once prepared:
-    /// what takes away the body's clearance. Unlike the bump, it does not
-    /// read a rock the node stands on as ground, nor a tube's floor
-    /// curving up into its wall (the ring's plane tilts with it) as a
-    /// rock; a step between the wheels reads about half its height, a
-    /// crest the sag of the slopes' chord under it.
+    /// under [`BUMP_FLOOR_M`]), once prepared (with `max_bump_m` 0 too:
+    /// read from the map's table then): what takes away the body's
+    /// clearance. Unlike the bump, it does not read a rock the node
+    /// stands on as ground, nor a tube's floor curving up into its wall
+    /// (the ring's plane tilts with it) as a rock; a step between the
+    /// wheels reads about half its height, a crest the sag of the slopes'
+    /// chord under it.
     pub fn rock_m(&self, node: u32) -> Option<f32> {
-        let b = *self.rock.get(node as usize)?;
+        if self.prep != Prep::Ready {
+            return None;
+        }
+        let b = match self.rock.get(node as usize) {
+            Some(&b) if self.p.max_bump_m > 0.0 => b,
+            _ => self.rock_under(self.trav.nodes().get(node as usize)?),
+        };
         Some(self.units_m(b))
     }
 

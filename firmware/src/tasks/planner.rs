@@ -741,19 +741,15 @@ impl PlannerTask {
         }
         let max_m = ex.scan.params().max_rock_m;
         let (node, at) = self.query.order[self.query.tried];
-        let bump_m = self.lat.bump_m(node).unwrap_or(0.0) as f64;
-        let rock_m = self.lat.rock_m(node).unwrap_or(0.0) as f64;
-        let on_bump = max_m > 0.0 && bump_m > max_m;
-        if !on_bump && !self.lat.over_a_rock(node) {
+        let barred = self.lat.over_a_rock(node);
+        if max_m <= 0.0 && !barred {
             return false;
         }
-        tracing::debug!(
-            x = at[0],
-            y = at[1],
-            bump_m,
-            rock_m,
-            "a rock under the goal"
-        );
+        let rock_m = self.lat.rock_m(node).unwrap_or(0.0) as f64;
+        if !barred && rock_m <= max_m {
+            return false;
+        }
+        tracing::debug!(x = at[0], y = at[1], rock_m, "a rock under the goal");
         ex.counters.goals_on_rocks += 1;
         ex.explorer.reject([at[0], at[1]]);
         self.phase = self.try_goal(self.query.tried + 1);
