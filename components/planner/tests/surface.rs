@@ -516,28 +516,39 @@ fn the_body_keeps_its_wheels_off_a_decks_open_side() {
     assert!(nearest <= 2.6, "{nearest:.2}");
 }
 
+/// The traversability graph of `m` grown from (1, 2) on its floor.
+fn graph_from_the_floor(m: &MlsMap) -> TravMap {
+    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    trav.build(m, [1.0, 2.0, 0.0])
+        .unwrap_or_else(|e| panic!("{e}"));
+    trav
+}
+
+/// A lattice over `trav` with `params`, prepared to `goal` on `m`.
+fn prepared(m: &MlsMap, trav: TravMap, params: SurfaceParams, goal: (u32, u32)) -> SurfaceLattice {
+    let prims = generate(&PrimitiveSpec::default());
+    let mut lat =
+        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
+    lat.prepare_all(m, goal).unwrap_or_else(|e| panic!("{e}"));
+    lat
+}
+
 #[test]
 fn a_goal_over_a_rock_shows_the_rocks_height() {
     // The 8 cm dome of the test above: what the exploration's goal check
     // reads under the body at its top, and nothing on the floor round it.
     let m = floor_with_a_dome((0.0, 4.0), 0.08);
-    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
-    trav.build(&m, [1.0, 2.0, 0.0])
-        .unwrap_or_else(|e| panic!("{e}"));
+    let trav = graph_from_the_floor(&m);
     let node = |x: f64, y: f64| {
         trav.node_at(x, y, 0.0, 0.3)
             .unwrap_or_else(|| panic!("no node at {x}, {y}"))
     };
     let (rock, floor) = (node(5.0, 2.0), node(8.0, 2.0));
-    let prims = generate(&PrimitiveSpec::default());
     let params = SurfaceParams {
         bump_weight: 3.0,
         ..SurfaceParams::default()
     };
-    let mut lat =
-        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
-    lat.prepare_all(&m, (rock, 0))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let lat = prepared(&m, trav, params, (rock, 0));
     let over_rock = lat.bump_m(rock).unwrap_or(f32::NAN);
     assert!((0.06..=0.09).contains(&over_rock), "{over_rock} m");
     assert_eq!(lat.bump_m(floor), Some(0.0));
@@ -547,13 +558,8 @@ fn a_goal_over_a_rock_shows_the_rocks_height() {
         max_bump_m: 0.1,
         ..SurfaceParams::default()
     };
-    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
-    trav.build(&m, [1.0, 2.0, 0.0])
-        .unwrap_or_else(|e| panic!("{e}"));
-    let mut lat =
-        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
-    lat.prepare_all(&m, (floor, 0))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let trav = graph_from_the_floor(&m);
+    let lat = prepared(&m, trav, params, (floor, 0));
     let from_floor = lat.rock_m(rock).unwrap_or(f32::NAN);
     assert!((0.07..=0.09).contains(&from_floor), "{from_floor} m");
     assert_eq!(lat.rock_m(floor), Some(0.0));
@@ -603,9 +609,7 @@ fn a_floor_curving_up_into_a_wall_is_no_rock() {
         let side = ((y - 2.0).abs() - 0.6).max(0.0);
         0.8 * side * side
     });
-    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
-    trav.build(&m, [1.0, 2.0, 0.0])
-        .unwrap_or_else(|e| panic!("{e}"));
+    let trav = graph_from_the_floor(&m);
     let across: Vec<(f64, u32)> = (0..16)
         .map(|k| 2.0 + 0.1 * k as f64)
         .filter_map(|y| {
@@ -614,16 +618,12 @@ fn a_floor_curving_up_into_a_wall_is_no_rock() {
         })
         .collect();
     let floor = across[0].1;
-    let prims = generate(&PrimitiveSpec::default());
     let params = SurfaceParams {
         bump_weight: 1.0,
         max_bump_m: 0.06,
         ..SurfaceParams::default()
     };
-    let mut lat =
-        SurfaceLattice::new(trav, &prims, params, 200 * 200).unwrap_or_else(|e| panic!("{e}"));
-    lat.prepare_all(&m, (floor, 0))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let lat = prepared(&m, trav, params, (floor, 0));
     let most = |f: &dyn Fn(u32) -> Option<f32>| {
         across
             .iter()
