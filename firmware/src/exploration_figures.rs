@@ -16,7 +16,8 @@ use crate::tasks::exploration::Exploration;
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ExplorationFigures {
     /// `exploring`, `returning` or `finished`, and why the return began
-    /// (`explored`: nothing reachable was left; `time_limit`).
+    /// (`explored`: nothing reachable was left; `time_limit`; `energy`:
+    /// what was left of the budget was what the way home needs).
     pub state: String,
     pub return_reason: Option<String>,
     pub returned_home: bool,
@@ -83,6 +84,12 @@ pub struct ExplorationFigures {
     pub safety_stops: BTreeMap<String, u64>,
     /// Area within the coverage radius of the rover's track, m^2.
     pub covered_area_m2: f64,
+    /// The energy drawn, from the drives' velocities and torques and the
+    /// base draw, Wh; the budget (0: none); how long some drive reported
+    /// no torque, s (its wheel's draw is missing for that long).
+    pub energy_used_wh: f64,
+    pub energy_budget_wh: f64,
+    pub energy_unmeasured_s: f64,
 }
 
 /// The on-board figures.
@@ -91,6 +98,7 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
     let reason = |r: ReturnReason| match r {
         ReturnReason::Explored => "explored".to_string(),
         ReturnReason::TimeLimit => "time_limit".to_string(),
+        ReturnReason::Energy => "energy".to_string(),
     };
     let (state, return_reason) = match e.mode() {
         Mode::Exploring => ("exploring", None),
@@ -127,6 +135,9 @@ pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
             .map(|r| (r.name().to_string(), c.stops[r as usize - 1]))
             .collect(),
         covered_area_m2: e.explorer.coverage().area_m2(),
+        energy_used_wh: e.energy.used_wh(),
+        energy_budget_wh: e.explorer.params().energy_budget_wh,
+        energy_unmeasured_s: e.energy.unmeasured_s(),
         ..Default::default()
     }
 }

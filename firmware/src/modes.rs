@@ -228,7 +228,7 @@ fn print_summary(r: &MissionResult) {
         let opt =
             |v: Option<f64>, unit: &str| v.map_or("-".to_string(), |v| format!("{v:.2}{unit}"));
         eprintln!(
-            "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {:.1} m up and {:.1} m down, {} collisions{}",
+            "exploration: {}{}, explored {:.0} m2 (coverage {}), {} plans driven of {} goals tried, home error {}, {} driven, {:.1} m up and {:.1} m down, {} collisions{}, {:.0} Wh drawn{}",
             e.state,
             e.return_reason.as_ref().map_or(String::new(), |r| format!(" ({r})")),
             e.explored_area_m2,
@@ -247,6 +247,12 @@ fn print_summary(r: &MissionResult) {
                     if w { ", wrecked" } else { "" }
                 ),
                 _ => String::new(),
+            },
+            e.energy_used_wh,
+            if e.energy_budget_wh > 0.0 {
+                format!(" of {:.0}", e.energy_budget_wh)
+            } else {
+                String::new()
             },
         );
     }

@@ -4,11 +4,15 @@
 //! PDO mapping (node ids 1..=4, the drives' default COB-IDs):
 //! - RPDO1 `0x200 + node`: controlword (0x6040, u16) + target velocity (0x60FF, i32)
 //! - TPDO1 `0x180 + node`: statusword (0x6041, u16) + velocity actual (0x606C, i32)
-//! - TPDO2 `0x280 + node`: position actual (0x6064, i32)
+//! - TPDO2 `0x280 + node`: position actual (0x6064, i32) + torque actual
+//!   (0x6077, i16); a drive that maps position alone sends 4 bytes, and
+//!   its torque is unknown
 //! - SYNC `0x080`, no data: the drives answer each SYNC with TPDO1 and TPDO2.
 //!
 //! All values little-endian. Velocities are in milliradians per second at the
-//! wheel, positions in encoder increments ([`COUNTS_PER_REV`] per wheel turn).
+//! wheel, positions in encoder increments ([`COUNTS_PER_REV`] per wheel turn),
+//! torques in thousandths of the rated torque ([`RATED_TORQUE_MNM`], as the
+//! profile has it).
 
 use crate::can::CanFrame;
 
@@ -18,6 +22,24 @@ pub const TPDO1_BASE: u16 = 0x180;
 pub const TPDO2_BASE: u16 = 0x280;
 /// Encoder increments per wheel revolution (after the gearbox).
 pub const COUNTS_PER_REV: i64 = 4096 * 4;
+/// Rated torque (0x6076) of a wheel drive at the wheel, mN m: torque actual
+/// (0x6077) counts thousandths of it.
+pub const RATED_TORQUE_MNM: u32 = 15_000;
+
+/// Torque actual (0x6077) in N m at the wheel.
+pub fn torque_nm(per_mille: i16) -> f64 {
+    per_mille as f64 * RATED_TORQUE_MNM as f64 * 1e-6
+}
+
+/// N m at the wheel as torque actual (0x6077), saturated at the field's range.
+pub fn torque_per_mille(nm: f64) -> i16 {
+    let v = (nm * 1e6 / RATED_TORQUE_MNM as f64).round();
+    if v.is_nan() {
+        0
+    } else {
+        v.clamp(i16::MIN as f64, i16::MAX as f64) as i16
+    }
+}
 
 /// Controlword commands of the state machine.
 pub mod controlword {
@@ -105,8 +127,17 @@ pub fn tpdo1(node: u8, statusword: u16, velocity: i32) -> CanFrame {
     CanFrame::new(TPDO1_BASE + node as u16, &d)
 }
 
-pub fn tpdo2(node: u8, position: i32) -> CanFrame {
-    CanFrame::new(TPDO2_BASE + node as u16, &position.to_le_bytes())
+/// TPDO2: position actual, and torque actual when the drive maps it.
+pub fn tpdo2(node: u8, position: i32, torque: Option<i16>) -> CanFrame {
+    let mut d = [0u8; 6];
+    d[..4].copy_from_slice(&position.to_le_bytes());
+    match torque {
+        Some(t) => {
+            d[4..].copy_from_slice(&t.to_le_bytes());
+            CanFrame::new(TPDO2_BASE + node as u16, &d)
+        }
+        None => CanFrame::new(TPDO2_BASE + node as u16, &d[..4]),
+    }
 }
 
 pub fn sync() -> CanFrame {
@@ -130,6 +161,9 @@ pub enum Pdo {
     Position {
         node: u8,
         position: i32,
+        /// Torque actual, thousandths of the rated torque; `None` when the
+        /// drive maps position alone.
+        torque: Option<i16>,
     },
 }
 
@@ -183,6 +217,12 @@ pub fn decode(f: &CanFrame) -> Result<Pdo, PdoError> {
             [a, b, c, d] => Ok(Pdo::Position {
                 node,
                 position: i32::from_le_bytes([*a, *b, *c, *d]),
+                torque: None,
+            }),
+            [a, b, c, d, e, g] => Ok(Pdo::Position {
+                node,
+                position: i32::from_le_bytes([*a, *b, *c, *d]),
+                torque: Some(i16::from_le_bytes([*e, *g])),
             }),
             _ => Err(wrong()),
         },
@@ -220,7 +260,8 @@ mod tests {
         for f in [
             rpdo1(3, 0x0F, -1234),
             tpdo1(2, 0x0637, 99),
-            tpdo2(4, i32::MIN),
+            tpdo2(4, i32::MIN, None),
+            tpdo2(1, 77, Some(-1234)),
             sync(),
         ] {
             let p = decode(&f).expect("mapped");
@@ -236,7 +277,11 @@ mod tests {
                     statusword,
                     velocity,
                 } => tpdo1(node, statusword, velocity),
-                Pdo::Position { node, position } => tpdo2(node, position),
+                Pdo::Position {
+                    node,
+                    position,
+                    torque,
+                } => tpdo2(node, position, torque),
             };
             assert_eq!(back, f);
         }
@@ -253,5 +298,19 @@ mod tests {
             decode(&CanFrame::new(0x080, &[1])),
             Err(PdoError::WrongLength { .. })
         ));
+        // Position with half a torque.
+        assert!(matches!(
+            decode(&CanFrame::new(0x281, &[1, 2, 3, 4, 5])),
+            Err(PdoError::WrongLength { .. })
+        ));
+    }
+
+    #[test]
+    fn torque_actual_counts_thousandths_of_the_rated_torque() {
+        assert_eq!(torque_per_mille(15.0), 1000);
+        assert_eq!(torque_per_mille(-7.5), -500);
+        assert_eq!(torque_nm(1000), 15.0);
+        assert_eq!(torque_per_mille(1e9), i16::MAX);
+        assert_eq!(torque_per_mille(f64::NAN), 0);
     }
 }

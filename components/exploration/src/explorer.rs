@@ -3,6 +3,7 @@
 //! returning or done.
 
 use crate::coverage::CoverageMap;
+use crate::energy::{way_home_wh, PowerModel};
 use crate::trail::{Trail, LEVEL_M};
 
 /// Failed goals remembered (older ones are forgotten first).
@@ -38,6 +39,15 @@ pub struct ExplorerParams {
     /// Track points kept for the way home, and their spacing, m.
     pub trail_points: usize,
     pub trail_spacing_m: f64,
+    /// Exploring ends when the energy drawn and the way home's expected
+    /// cost ([`way_home_wh`] with `energy_return_factor`) reach this, Wh;
+    /// 0: no budget.
+    pub energy_budget_wh: f64,
+    /// The way home is expected to cost this many times what the way out
+    /// cost a metre.
+    pub energy_return_factor: f64,
+    /// The rover's draw, for the energy meter that feeds the budget.
+    pub power: PowerModel,
 }
 
 impl Default for ExplorerParams {
@@ -51,6 +61,9 @@ impl Default for ExplorerParams {
             home_tolerance_m: 0.25,
             trail_points: 4096,
             trail_spacing_m: 1.0,
+            energy_budget_wh: 0.0,
+            energy_return_factor: 1.5,
+            power: PowerModel::default(),
         }
     }
 }
@@ -72,6 +85,8 @@ pub enum ReturnReason {
     /// Nothing explorable is reachable.
     Explored,
     TimeLimit,
+    /// What is left of the energy budget is what the way home needs.
+    Energy,
 }
 
 /// See the module documentation.
@@ -90,6 +105,11 @@ pub struct Explorer {
     resumed: bool,
     /// Where the last resumed exploring found nothing reachable.
     resumed_in_vain_at: Option<[f64; 2]>,
+    /// The energy drawn so far, Wh, and the distance driven, m (across,
+    /// between the points observed).
+    energy_used_wh: f64,
+    driven_m: f64,
+    last_seen: Option<[f64; 3]>,
 }
 
 impl Explorer {
@@ -110,6 +130,9 @@ impl Explorer {
             empty_queries: 0,
             resumed: false,
             resumed_in_vain_at: None,
+            energy_used_wh: 0.0,
+            driven_m: 0.0,
+            last_seen: None,
             home,
             p,
         }
@@ -131,6 +154,8 @@ impl Explorer {
         self.empty_queries = 0;
         self.resumed = false;
         self.resumed_in_vain_at = None;
+        self.driven_m = 0.0;
+        self.last_seen = None;
     }
 
     pub fn mode(&self) -> Mode {
@@ -149,13 +174,54 @@ impl Explorer {
         &self.trail
     }
 
+    /// The energy drawn since the start, Wh (the next [`Self::observe`]
+    /// weighs it against the budget).
+    pub fn set_energy_used(&mut self, wh: f64) {
+        self.energy_used_wh = wh;
+    }
+
+    /// Distance driven, m, across.
+    pub fn driven_m(&self) -> f64 {
+        self.driven_m
+    }
+
+    /// The way home from `at` along the track, m.
+    pub fn way_home_m(&self, at: [f64; 3]) -> f64 {
+        self.trail
+            .earliest_near(at, 2.0 * self.p.trail_spacing_m)
+            .map_or(0.0, |i| {
+                let first = self.trail.points()[i];
+                self.trail.length_back_from(i) + (first[0] - at[0]).hypot(first[1] - at[1])
+            })
+    }
+
+    /// What the way home from `at` is expected to cost, Wh.
+    pub fn way_home_wh(&self, at: [f64; 3]) -> f64 {
+        way_home_wh(
+            self.energy_used_wh,
+            self.driven_m,
+            self.way_home_m(at),
+            self.p.energy_return_factor,
+        )
+    }
+
     /// The rover is at `p` at mission time `t_s`.
     pub fn observe(&mut self, t_s: f64, p: [f64; 3]) {
         self.coverage
             .mark(p[0], p[1], p[2], self.p.coverage_radius_m);
         self.trail.record(p);
+        if let Some(l) = self.last_seen {
+            self.driven_m += (p[0] - l[0]).hypot(p[1] - l[1]);
+        }
+        self.last_seen = Some(p);
         if self.mode == Mode::Exploring && t_s >= self.p.time_limit_s {
             self.mode = Mode::Returning(ReturnReason::TimeLimit);
+        }
+        if self.mode == Mode::Exploring
+            && self.p.energy_budget_wh > 0.0
+            && self.energy_used_wh + self.way_home_wh(p) >= self.p.energy_budget_wh
+        {
+            self.mode = Mode::Returning(ReturnReason::Energy);
         }
         if let Mode::Returning(r) = self.mode {
             // On home's level only: a garage rover on its way home crossed
@@ -313,6 +379,38 @@ mod tests {
         // Home is home.
         assert!(!e.resume([0.2, 0.0]));
         assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+    }
+
+    #[test]
+    fn the_energy_budget_turns_the_rover_home_with_enough_left_to_get_there() {
+        let p = ExplorerParams {
+            energy_budget_wh: 100.0,
+            ..ExplorerParams::default()
+        };
+        let mut e = Explorer::new(p, [0.0, 0.0, 0.2]);
+        // Out along x at 1 Wh a metre: at x the way home costs 1.5 x Wh
+        // more, so 2.5 x reaches 100 Wh at 40 m.
+        for k in 0..=60 {
+            e.set_energy_used(k as f64);
+            e.observe(k as f64, [k as f64, 0.0, 0.2]);
+            if e.mode() != Mode::Exploring {
+                break;
+            }
+        }
+        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Energy));
+        assert_eq!(e.driven_m(), 40.0);
+        assert_eq!(e.way_home_m([40.0, 0.0, 0.2]), 40.0);
+        // Something explorable on the way home does not turn it round.
+        assert!(!e.resume([30.0, 0.0]));
+        e.observe(100.0, [0.1, 0.0, 0.2]);
+        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Energy));
+        // Without a budget the same draw never sends it home.
+        let mut e = Explorer::new(ExplorerParams::default(), [0.0, 0.0, 0.2]);
+        for k in 0..=60 {
+            e.set_energy_used(k as f64);
+            e.observe(k as f64, [k as f64, 0.0, 0.2]);
+        }
+        assert_eq!(e.mode(), Mode::Exploring);
     }
 
     #[test]

@@ -106,6 +106,16 @@ impl Trail {
         }
         Some(self.points[0])
     }
+
+    /// The length of the track from point `from` back to home, m (across,
+    /// as [`Self::back_from`] walks it).
+    pub fn length_back_from(&self, from: usize) -> f64 {
+        let end = (from + 1).min(self.points.len());
+        self.points[..end]
+            .windows(2)
+            .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+            .sum()
+    }
 }
 
 /// Track points more than this over or under the rover are on another
@@ -136,6 +146,10 @@ mod tests {
         let g = t.back_from(from, 2.5).expect("goal");
         assert!((g[0] - 2.5).abs() < 1e-9 && g[1] == 0.0, "{g:?}");
         assert_eq!(t.back_from(from, 50.0), Some([0.0, 0.0, 0.0]));
+        // The way home from there is 5 m, not the 18 m driven.
+        assert_eq!(t.length_back_from(from), 5.0);
+        assert_eq!(t.length_back_from(t.points().len() - 1), 18.0);
+        assert_eq!(t.length_back_from(0), 0.0);
     }
 
     #[test]

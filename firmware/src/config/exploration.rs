@@ -34,12 +34,25 @@ pub struct ExplorationConfig {
     /// before planning, m; 0: off (see
     /// `speleo_exploration::CandidateParams::max_rock_m`).
     pub max_goal_rock_m: f64,
+    /// Exploring ends when the energy drawn and the way home's expected
+    /// cost reach this, Wh; 0: no budget (the energy is still counted).
+    pub energy_budget_wh: f64,
+    /// The way home is expected to cost this many times what the way out
+    /// cost a metre.
+    pub energy_return_factor: f64,
+    /// The rover's draw (`speleo_exploration::PowerModel`): always, W ...
+    pub base_power_w: f64,
+    /// ... the drives' efficiency, mechanical at the wheel over electrical ...
+    pub drive_efficiency: f64,
+    /// ... and their windings' heat, W per (N m)^2 of wheel torque.
+    pub winding_loss_w_per_nm2: f64,
 }
 
 impl Default for ExplorationConfig {
     fn default() -> Self {
         let e = speleo_exploration::ExplorerParams::default();
         let c = speleo_exploration::CandidateParams::default();
+        let m = speleo_exploration::PowerModel::default();
         ExplorationConfig {
             enabled: true,
             time_limit_s: e.time_limit_s,
@@ -52,6 +65,11 @@ impl Default for ExplorationConfig {
             target: None,
             home_tolerance_m: e.home_tolerance_m,
             max_goal_rock_m: c.max_rock_m,
+            energy_budget_wh: e.energy_budget_wh,
+            energy_return_factor: e.energy_return_factor,
+            base_power_w: m.base_power_w,
+            drive_efficiency: m.drive_efficiency,
+            winding_loss_w_per_nm2: m.winding_loss_w_per_nm2,
         }
     }
 }
@@ -104,6 +122,35 @@ impl ExplorationConfig {
             "0..=1",
         )?;
         range(
+            &k("energy_budget_wh"),
+            self.energy_budget_wh,
+            0.0,
+            1e6,
+            "0..=1e6",
+        )?;
+        range(
+            &k("energy_return_factor"),
+            self.energy_return_factor,
+            1.0,
+            10.0,
+            "1..=10",
+        )?;
+        range(&k("base_power_w"), self.base_power_w, 0.0, 1e4, "0..=1e4")?;
+        range(
+            &k("drive_efficiency"),
+            self.drive_efficiency,
+            0.05,
+            1.0,
+            "0.05..=1",
+        )?;
+        range(
+            &k("winding_loss_w_per_nm2"),
+            self.winding_loss_w_per_nm2,
+            0.0,
+            100.0,
+            "0..=100",
+        )?;
+        range(
             &k("home_tolerance_m"),
             self.home_tolerance_m,
             0.05,
@@ -128,7 +175,18 @@ impl ExplorationConfig {
             coverage_radius_m: self.coverage_radius_m,
             empty_queries_to_return: self.empty_queries_to_return,
             home_tolerance_m: self.home_tolerance_m,
+            energy_budget_wh: self.energy_budget_wh,
+            energy_return_factor: self.energy_return_factor,
+            power: self.power_model(),
             ..Default::default()
+        }
+    }
+
+    pub fn power_model(&self) -> speleo_exploration::PowerModel {
+        speleo_exploration::PowerModel {
+            base_power_w: self.base_power_w,
+            drive_efficiency: self.drive_efficiency,
+            winding_loss_w_per_nm2: self.winding_loss_w_per_nm2,
         }
     }
 

@@ -148,6 +148,9 @@ pub struct WheelJson {
     pub statusword: u16,
     pub velocity_rad_s: f64,
     pub position_counts: i32,
+    /// Torque actual at the wheel, N m; `None` (null) when the drive does
+    /// not map it.
+    pub torque_nm: Option<f64>,
     pub nmt: &'static str,
     pub profile_velocity_mode: bool,
     pub emergencies: u32,

@@ -5,7 +5,9 @@
 //! goals come from the rover's track home instead.
 
 use speleo_control::StopReason;
-use speleo_exploration::{CandidateParams, CandidateScan, Explorer, ExplorerParams, Mode};
+use speleo_exploration::{
+    CandidateParams, CandidateScan, EnergyMeter, Explorer, ExplorerParams, Mode,
+};
 use speleo_mapping::mls::ground_near;
 use speleo_simulator::{
     driven_prefix, rmse_at_equal_times, InternalSim, Outcome, Prefix, PrefixRule, PREDICTION_POINTS,
@@ -13,6 +15,7 @@ use speleo_simulator::{
 
 use crate::tasks::sim_worker::SimWorker;
 use crate::validation_dump::ValidationDump;
+use speleo_hal::cia402;
 use speleo_hal::sim::quat;
 use speleo_slam::lie::Pose;
 
@@ -271,6 +274,10 @@ pub struct Exploration {
     /// base_link over the ground, m: the track is base_link's, plans are
     /// on the ground ([`Exploration::set_base_height`]).
     base_height_m: f64,
+    /// The energy drawn, from the drives' feedback, and the last feedback
+    /// read.
+    pub energy: EnergyMeter,
+    drives_seen: u64,
 }
 
 /// Escapes from a stuck place, in turn: a back-out backward, one forward,
@@ -293,6 +300,8 @@ impl Exploration {
         settle_s: f64,
     ) -> Self {
         Exploration {
+            energy: EnergyMeter::new(e.power),
+            drives_seen: 0,
             explorer: Explorer::new(e, [0.0; 3]),
             scan: CandidateScan::new(c),
             target,
@@ -930,6 +939,7 @@ impl Exploration {
     /// Every frame: follow the rover's pose; publish the state.
     pub fn observe(&mut self, bus: &mut Bus, now: u64) {
         self.follow_comparison(bus, now);
+        self.meter_energy(bus, now);
         if let Some(p) = bus.slam.get().map(|p| p.value.position) {
             if !self.homed {
                 self.explorer.restart(p);
@@ -954,6 +964,21 @@ impl Exploration {
             },
             goal: bus.exploration.goal,
         };
+    }
+
+    /// Count the draw since the last frame from the drives' latest
+    /// velocities and torques.
+    fn meter_energy(&mut self, bus: &Bus, now: u64) {
+        match bus.drives.newer_than(self.drives_seen) {
+            Some(d) => {
+                self.drives_seen = d.seq;
+                let speed = d.value.nodes.map(|n| n.velocity as f64 * 1e-3);
+                let torque = d.value.nodes.map(|n| n.torque.map(cia402::torque_nm));
+                self.energy.read(now, &speed, &torque);
+            }
+            None => self.energy.advance(now),
+        }
+        self.explorer.set_energy_used(self.energy.used_wh());
     }
 
     /// Whether a query may begin: home is known, the mission is not over,
@@ -1028,6 +1053,7 @@ impl Exploration {
 mod tests {
     use super::*;
     use crate::bus::SlamPose;
+    use speleo_exploration::ReturnReason;
 
     fn at(bus: &mut Bus, p: [f64; 3]) {
         bus.slam.publish(
@@ -1047,6 +1073,58 @@ mod tests {
             None,
             1.0,
         )
+    }
+
+    #[test]
+    fn the_drives_feedback_is_metered_and_the_budget_turns_the_rover_home() {
+        use speleo_hal::canopen::supervisor::DrivesState;
+        // Driving along x at 0.4 m/s, every wheel at 2 rad/s under 3 N m
+        // (torque actual 200 of 1000): 45 W + 4 x (6 W / 0.7 + 0.54 W).
+        let run = |torque: Option<i16>, budget_wh: f64| {
+            let mut e = Exploration::new(
+                ExplorerParams {
+                    energy_budget_wh: budget_wh,
+                    ..ExplorerParams::default()
+                },
+                CandidateParams::default(),
+                None,
+                1.0,
+            );
+            let mut bus = Bus::new();
+            let mut drives = DrivesState::default();
+            for n in drives.nodes.iter_mut() {
+                n.velocity = 2000;
+                n.torque = torque;
+            }
+            let mut turned_at = None;
+            for k in 0..=10_000u64 {
+                let now = k * 10_000_000;
+                bus.drives.publish(now, drives);
+                at(&mut bus, [k as f64 * 0.004, 0.0, 0.0]);
+                e.observe(&mut bus, now);
+                if turned_at.is_none() && e.mode() == Mode::Returning(ReturnReason::Energy) {
+                    turned_at = Some(now as f64 * 1e-9);
+                }
+            }
+            (e.energy.used_wh(), e.energy.unmeasured_s(), turned_at)
+        };
+        let watts = 45.0 + 4.0 * (6.0 / 0.7 + 0.06 * 9.0);
+        let (wh, unmeasured, turned) = run(Some(200), 0.0);
+        assert!((wh - watts * 100.0 / 3600.0).abs() < 1e-3, "{wh} Wh");
+        assert_eq!((unmeasured, turned), (0.0, None));
+        // A 5 Wh budget: home is as far as the rover has come, so it turns
+        // at 2 Wh (2 + 1.5 x 2 = 5), 88 s out.
+        let (_, _, turned) = run(Some(200), 5.0);
+        let t = turned.unwrap_or_else(|| panic!("never turned home"));
+        let expected = 2.0 * 3600.0 / watts;
+        assert!(
+            (t - expected).abs() < 1.0,
+            "turned at {t} s, not {expected}"
+        );
+        // Drives that map no torque: the base alone, and the time counted.
+        let (wh, unmeasured, _) = run(None, 0.0);
+        assert!((wh - 45.0 * 100.0 / 3600.0).abs() < 1e-3, "{wh} Wh");
+        assert!((unmeasured - 100.0).abs() < 0.02, "{unmeasured} s");
     }
 
     #[test]

@@ -225,6 +225,7 @@ impl Task<Bus> for RecorderTask<'_> {
                 statusword: n.statusword,
                 velocity_rad_s: n.velocity as f64 * 1e-3,
                 position_counts: n.position,
+                torque_nm: n.torque.map(speleo_hal::cia402::torque_nm),
                 nmt: n.nmt.map_or("unknown", nmt_name),
                 profile_velocity_mode: n.mode_set,
                 emergencies: n.emergencies,

@@ -123,9 +123,19 @@ pub fn describe(e: &Event) -> String {
             "TPDO1 node {node}: statusword 0x{statusword:04X} ({:?}), velocity {velocity} mrad/s",
             DriveState::from_statusword(*statusword)
         ),
-        Event::Pdo(Pdo::Position { node, position }) => {
-            format!("TPDO2 node {node}: position {position}")
-        }
+        Event::Pdo(Pdo::Position {
+            node,
+            position,
+            torque: None,
+        }) => format!("TPDO2 node {node}: position {position}"),
+        Event::Pdo(Pdo::Position {
+            node,
+            position,
+            torque: Some(t),
+        }) => format!(
+            "TPDO2 node {node}: position {position}, torque {t}/1000 of rated ({:.3} N m)",
+            speleo_hal::cia402::torque_nm(*t)
+        ),
         Event::Pdo(Pdo::Sync) => "SYNC".into(),
         Event::SdoRequest { node, sdo } => format!("SDO to node {node}: {}", sdo_text(sdo)),
         Event::SdoResponse { node, sdo } => format!("SDO from node {node}: {}", sdo_text(sdo)),

@@ -38,6 +38,9 @@ pub struct NodeFeedback {
     pub velocity: i32,
     /// Encoder increments.
     pub position: i32,
+    /// Torque actual with the position, thousandths of the rated torque
+    /// (`None`: the drive does not map it, or nothing came yet).
+    pub torque: Option<i16>,
     /// Receive times, 0 = never.
     pub status_time_ns: u64,
     pub position_time_ns: u64,
@@ -59,6 +62,7 @@ impl Default for NodeFeedback {
             statusword: 0,
             velocity: 0,
             position: 0,
+            torque: None,
             status_time_ns: 0,
             position_time_ns: 0,
             heartbeat_time_ns: 0,
@@ -138,9 +142,14 @@ impl DrivesState {
                     false
                 }
             },
-            Event::Pdo(Pdo::Position { node, position }) => match wheel_of(node) {
+            Event::Pdo(Pdo::Position {
+                node,
+                position,
+                torque,
+            }) => match wheel_of(node) {
                 Some(w) => {
                     self.nodes[w].position = position;
+                    self.nodes[w].torque = torque;
                     self.nodes[w].position_time_ns = t;
                     true
                 }

@@ -30,6 +30,10 @@ pub struct BodyState {
     /// Wheel speeds relative to the chassis, rad/s, and their angles, rad.
     pub wheel_speed: [f64; WHEELS],
     pub wheel_angle: [f64; WHEELS],
+    /// Torque each drive applies to its wheel, N m, positive turning it
+    /// forward (what the drives report as torque actual, 0x6077). The
+    /// flat-ground kinematic model has no forces: 0 there.
+    pub wheel_torque: [f64; WHEELS],
 }
 
 impl Default for BodyState {
@@ -43,6 +47,7 @@ impl Default for BodyState {
             specific_force: [0.0, 0.0, GRAVITY],
             wheel_speed: [0.0; WHEELS],
             wheel_angle: [0.0; WHEELS],
+            wheel_torque: [0.0; WHEELS],
         }
     }
 }

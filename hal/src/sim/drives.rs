@@ -5,7 +5,7 @@
 //! for its device type, heartbeat time, controlword, statusword, modes of
 //! operation and the actual values, and, when operational, runs the
 //! profile's state machine on the RPDO controlwords and answers every SYNC
-//! with TPDO1 (statusword, velocity) and TPDO2 (position). It stops its wheel
+//! with TPDO1 (statusword, velocity) and TPDO2 (position, torque). It stops its wheel
 //! when its commands go stale (the drive's own watchdog) or when it is not in
 //! profile velocity mode.
 
@@ -51,6 +51,8 @@ struct Drive {
     last_command_ns: Option<u64>,
     velocity: i32,
     position: i32,
+    /// Torque actual (0x6077), thousandths of the rated torque.
+    torque: i16,
     nmt: Option<NmtState>,
     mode: i8,
     /// Is this drive's power (and CAN transceiver) on? Tests switch it off.
@@ -90,6 +92,7 @@ impl SimDrives {
                 last_command_ns: None,
                 velocity: 0,
                 position: 0,
+                torque: 0,
                 nmt: None,
                 mode: 0,
                 powered: true,
@@ -203,6 +206,8 @@ impl SimDrives {
                 (0x6060, 0) | (0x6061, 0) => read(index, sub, d.mode as u8 as u32, 1),
                 (0x6064, 0) => read(index, sub, d.position as u32, 4),
                 (0x606C, 0) => read(index, sub, d.velocity as u32, 4),
+                (0x6076, 0) => read(index, sub, cia402::RATED_TORQUE_MNM, 4),
+                (0x6077, 0) => read(index, sub, d.torque as u16 as u32, 2),
                 (0x60FF, 0) => read(index, sub, d.target as u32, 4),
                 _ => Sdo::Abort {
                     index,
@@ -236,7 +241,13 @@ impl SimDrives {
                     d.target = value as i32;
                     Sdo::DownloadResponse { index, sub }
                 }
-                (0x1000, 0) | (0x6041, 0) | (0x6061, 0) | (0x6064, 0) | (0x606C, 0) => Sdo::Abort {
+                (0x1000, 0)
+                | (0x6041, 0)
+                | (0x6061, 0)
+                | (0x6064, 0)
+                | (0x606C, 0)
+                | (0x6076, 0)
+                | (0x6077, 0) => Sdo::Abort {
                     index,
                     sub,
                     code: ABORT_READ_ONLY,
@@ -287,7 +298,7 @@ impl SimDrives {
                     let node = i as u8 + 1;
                     let t = now_ns + self.p.response_latency_ns * node as u64;
                     self.send(t, &cia402::tpdo1(node, d.state.statusword(), d.velocity));
-                    self.send(t, &cia402::tpdo2(node, d.position));
+                    self.send(t, &cia402::tpdo2(node, d.position, Some(d.torque)));
                 }
             }
             Event::Nmt { command, node } => {
@@ -369,6 +380,7 @@ impl SimDrives {
             d.spun_rad += (d.spin - 1.0) * (angle - d.last_angle_rad);
             d.last_angle_rad = angle;
             d.velocity = (rover.wheel_speed[i] * d.spin * 1000.0).round() as i32;
+            d.torque = cia402::torque_per_mille(rover.wheel_torque[i]);
             // Encoders wrap like the drive's 32-bit position register.
             d.position = (((angle + d.spun_rad) * per_rad).round() as i64) as i32;
         }
@@ -531,6 +543,40 @@ mod tests {
             n += 1;
         }
         assert_eq!(n, 6);
+    }
+
+    #[test]
+    fn the_torque_a_wheel_takes_is_reported_with_its_position() {
+        let mut s = started();
+        let b = BodyState {
+            wheel_torque: [3.0, -1.5, 0.0, 15.0],
+            ..BodyState::default()
+        };
+        s.observe(&b);
+        s.receive(30_000_000, &cia402::sync());
+        let mut torques = [None; WHEELS];
+        while let Some((_, bytes)) = s.outbox().pop_due(u64::MAX) {
+            let f = CanFrame::from_socketcan(&bytes).expect("frame");
+            if let Ok(Pdo::Position { node, torque, .. }) = cia402::decode(&f) {
+                torques[node as usize - 1] = torque;
+            }
+        }
+        assert_eq!(torques, [Some(200), Some(-100), Some(0), Some(1000)]);
+        // And over SDO, with the rated torque it counts in.
+        for (index, value, len) in [(0x6077, (-100i16) as u16 as u32, 2), (0x6076, 15_000, 4)] {
+            s.receive(40_000_000, &Sdo::UploadRequest { index, sub: 0 }.request(2));
+            let (_, bytes) = s.outbox().pop_due(u64::MAX).expect("answer");
+            let f = CanFrame::from_socketcan(&bytes).expect("frame");
+            assert_eq!(
+                Sdo::parse_response(f.payload()),
+                Some(Sdo::UploadResponse {
+                    index,
+                    sub: 0,
+                    value,
+                    len
+                })
+            );
+        }
     }
 
     #[test]

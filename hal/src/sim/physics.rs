@@ -543,7 +543,24 @@ impl PhysicsRover {
             specific_force: quat::rotate_inv(&q, f_world),
             wheel_speed,
             wheel_angle,
+            wheel_torque: self.wheel_torques(),
         }
+    }
+
+    /// The torque each wheel's motor applied over the last step, N m: the
+    /// motor's impulse of the step's last substep (rapier writes it back)
+    /// over that substep's length, signed as the wheel's speed (rapier's
+    /// motor impulse has the other sign).
+    fn wheel_torques(&self) -> [f64; WHEELS] {
+        let ip = &self.world.integration_parameters;
+        let substep_s = ip.dt as f64 / ip.num_solver_iterations.max(1) as f64;
+        self.joints.map(|j| {
+            self.world
+                .impulse_joints
+                .get(j)
+                .and_then(|j| j.data.motor(JointAxis::AngX))
+                .map_or(0.0, |m| -(m.impulse as f64) / substep_s)
+        })
     }
 }
 
@@ -763,11 +780,16 @@ mod tests {
     /// Ground 3 m square round the origin, of right triangles with legs of
     /// `cell` m (a TSDF mesh's density), at the height `z(x, y)`.
     fn grid(cell: f64, z: impl Fn(f64, f64) -> f64) -> Mesh {
-        let n = (3.0 / cell).round() as u32;
+        grid_of(3.0, cell, z)
+    }
+
+    /// As [`grid`], `side` m square.
+    fn grid_of(side: f64, cell: f64, z: impl Fn(f64, f64) -> f64) -> Mesh {
+        let n = (side / cell).round() as u32;
         let mut m = Mesh::default();
         for i in 0..=n {
             for j in 0..=n {
-                let (x, y) = (-1.5 + i as f64 * cell, -1.5 + j as f64 * cell);
+                let (x, y) = (-side / 2.0 + i as f64 * cell, -side / 2.0 + j as f64 * cell);
                 m.vertices.push([x as f32, y as f32, z(x, y) as f32]);
             }
         }
@@ -781,6 +803,46 @@ mod tests {
             }
         }
         m
+    }
+
+    #[test]
+    fn the_drives_work_lifts_the_rover_up_a_slope() {
+        // Driven 4 s up a 15-degree slope: the work the drives' torques
+        // did at their wheels' speeds is the rover's rise in potential
+        // energy and the losses of legs striking and slipping.
+        let p = PhysicsParams::default();
+        let slope = 15f64.to_radians();
+        let ground = grid_of(8.0, 0.1, |x, _| x * slope.tan());
+        let start = [-3.0, 0.0, -3.0 * slope.tan(), 0.0];
+        let mut r =
+            PhysicsRover::new_tilted(&p, &ground, start, [-slope, 0.0], 0.01).expect("rover");
+        let work = |r: &mut PhysicsRover, from: u64, steps: u64, target: f64| {
+            let mut joules = 0.0;
+            for k in from..from + steps {
+                r.step(k * 10_000_000, &[target; WHEELS]);
+                let s = r.state();
+                joules += (0..WHEELS)
+                    .map(|w| s.wheel_torque[w] * s.wheel_speed[w] * 0.01)
+                    .sum::<f64>();
+            }
+            joules
+        };
+        work(&mut r, 0, 100, 0.0);
+        let z0 = r.state().position[2];
+        let joules = work(&mut r, 100, 400, 2.0);
+        let mass = p.chassis_mass_kg + WHEELS as f64 * p.wheel_mass_kg;
+        let lifted = mass * GRAVITY * (r.state().position[2] - z0);
+        assert!(lifted > 30.0, "rose {lifted} J only");
+        assert!(
+            joules > lifted && joules < 1.8 * lifted,
+            "{joules} J of work for {lifted} J lifted"
+        );
+        // Rolling on the flat takes far less.
+        let w = World::build("flat", 0).expect("flat");
+        let mut r = PhysicsRover::new(&p, &w.mesh, w.start, 0.01).expect("rover");
+        work(&mut r, 0, 100, 0.0);
+        let flat = work(&mut r, 100, 400, 2.0);
+        assert!(flat > 0.0 && flat < 0.5 * joules, "{flat} J on the flat");
     }
 
     /// The chassis's manifolds with the ground after the last step: with

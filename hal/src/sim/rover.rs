@@ -121,6 +121,7 @@ impl Rover {
             specific_force: [self.accel, self.speed * self.yaw_rate, GRAVITY],
             wheel_speed: self.wheel_speed,
             wheel_angle: self.wheel_angle,
+            wheel_torque: [0.0; WHEELS],
         }
     }
 }
