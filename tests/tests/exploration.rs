@@ -4,8 +4,9 @@
 //! few minutes in a release build, far longer in the debug test build, so
 //! it is ignored there and run with
 //! `cargo test --release -p speleo-tests --test exploration -- --ignored`
-//! (as `ci/test.sh` does). Also, in a second: a rover wrecked in a fall
-//! ends its mission, and the report says so.
+//! (as `ci/test.sh` does), and so is the same tube with a small energy
+//! budget, which sends the rover home early. Also, in a second: a rover
+//! wrecked in a fall ends its mission, and the report says so.
 
 use speleo_firmware::cli::{Outputs, SimArgs};
 use speleo_firmware::modes;
@@ -72,6 +73,36 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
     assert!(std::fs::metadata(&plot)
         .map(|m| m.len() > 1000)
         .unwrap_or(false));
+    // The energy drawn, every drive's torque measured once they run:
+    // about 6 Wh of base draw over the mission and 4 Wh of driving.
+    assert!(
+        f("energy_used_wh") > 7.0 && f("energy_used_wh") < 14.0,
+        "{e}"
+    );
+    assert!(f("energy_unmeasured_s") < 1.0, "{e}");
+}
+
+/// With a 6 Wh budget (the whole tube takes about 10 Wh) the rover turns
+/// home while what is left is what the way home is expected to take,
+/// and gets home within it.
+#[test]
+#[ignore = "a whole exploration: run in release (see the module documentation)"]
+fn an_energy_budget_sends_the_rover_home_in_time() {
+    let r = mission(
+        "short-tube",
+        900.0,
+        "[exploration]\nenabled = true\nenergy_budget_wh = 6.0\n",
+        None,
+    );
+    let e = &r["exploration"];
+    let f = |k: &str| e[k].as_f64().unwrap_or(f64::NAN);
+    assert_eq!(e["state"], "finished", "{e}");
+    assert_eq!(e["return_reason"], "energy", "{e}");
+    assert!(f("home_error_m") <= 0.5, "{e}");
+    assert!(f("energy_used_wh") <= 6.0, "{e}");
+    // It went some way first, and not all of it.
+    assert!(f("distance_m") > 10.0, "{e}");
+    assert!(f("coverage_fraction") < 0.85, "{e}");
 }
 
 /// A rover let go 3 m over the flat world's ground falls, is wrecked, and
