@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The project's test command (README.md): format check, clippy with warnings
 # denied, every test of the workspace, the end-to-end exploration in release,
-# then each fuzz target for a bounded
+# a tiny campaign through a real one-node Slurm cluster, then each fuzz target for a bounded
 # time (SPELEO_FUZZ_SECONDS, default 15; 0 skips). Needs only a Rust
 # toolchain with rustfmt and clippy; everything else is fetched by cargo.
 set -euo pipefail
@@ -24,5 +24,8 @@ echo "== cargo test"
 cargo test --workspace --locked
 echo "== the autonomous mission end to end (release: minutes, not the debug build's hour)"
 cargo test --release -p speleo-tests --test exploration --locked -- --ignored
+echo "== a campaign on a one-node Slurm cluster (installs slurm-wlm and munge)"
+cargo build --release --locked -p speleo-firmware
+bash ci/slurm-campaign.sh
 echo "== fuzz targets"
 bash ci/fuzz.sh

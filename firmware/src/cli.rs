@@ -79,6 +79,67 @@ pub enum Command {
     /// the world it built and its track on request. Exits with status 1 when
     /// the verdict differs from the mission's.
     Validate(ValidateArgs),
+    /// Campaigns: many simulated missions (worlds x seeds x noise streams
+    /// x configurations x scenario starts) run as separate processes,
+    /// locally or one case per cluster task, and judged as a success rate.
+    #[command(subcommand)]
+    Campaign(CampaignCommand),
+}
+
+#[derive(Subcommand, Debug)]
+pub enum CampaignCommand {
+    /// Expand a matrix into numbered cases, each with its configuration,
+    /// and write them to DIR with a manifest (`DIR/manifest.toml`).
+    Plan(CampaignPlanArgs),
+    /// Run the cases not yet finished as `speleo sim` processes, N at a
+    /// time; or one case alone (`--case`, as a cluster's array task does).
+    /// A case that crashes, hangs past the matrix's `timeout_s` or is
+    /// killed is recorded so, and the campaign goes on.
+    Run(CampaignRunArgs),
+    /// The success rate with its 95 % interval, each part of success, the
+    /// failures by cause and place, the figures' spread, and a paired
+    /// comparison with a baseline campaign.
+    Report(CampaignReportArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct CampaignPlanArgs {
+    #[arg(value_name = "MATRIX.toml")]
+    pub matrix: PathBuf,
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+#[derive(Args, Debug)]
+pub struct CampaignRunArgs {
+    #[arg(value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Cases run side by side (default: the machine's cores).
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
+    /// Run this case alone (0-based).
+    #[arg(long, value_name = "K", conflicts_with = "jobs")]
+    pub case: Option<usize>,
+    /// Run finished cases again (all, or --case K) in a scratch folder and
+    /// check each reproduces its output hash; exit status 1 when one does
+    /// not.
+    #[arg(long)]
+    pub verify: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CampaignReportArgs {
+    #[arg(value_name = "DIR")]
+    pub dir: PathBuf,
+    /// A campaign to compare with, case by case.
+    #[arg(long, value_name = "DIR")]
+    pub baseline: Option<PathBuf>,
+    /// Write the summary as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+    /// Write the summary as Markdown too (as printed).
+    #[arg(long, value_name = "OUT.md")]
+    pub markdown: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]
@@ -376,6 +437,11 @@ pub struct SimArgs {
     /// World to simulate: lava-tube, short-tube, garage, boulders, flat, or a PLY/OBJ/STL mesh.
     #[arg(long, value_name = "NAME|MESH")]
     pub world: Option<String>,
+    /// Start at one of the world's waypoints (`speleo world waypoints`)
+    /// or at x,y,z,yaw (m, degrees; z the floor's) instead of the world's
+    /// start; home is there too.
+    #[arg(long, value_name = "NAME|x,y,z,yaw")]
+    pub start: Option<String>,
     /// Seed of every random source of the simulation, the sensors' noise
     /// too unless --noise-seed is given [default: from config, 1].
     #[arg(long, value_name = "N")]
@@ -484,6 +550,7 @@ pub fn main() -> ExitCode {
         ),
         Command::Mesh(a) => modes::mesh(a, progress),
         Command::Validate(a) => modes::validate(a),
+        Command::Campaign(c) => crate::campaign::command(c, progress),
     };
     match result {
         Ok(code) => code,

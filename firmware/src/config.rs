@@ -136,9 +136,21 @@ pub struct SimConfig {
     /// The physics rover's build.
     pub rover: speleo_hal::sim::PhysicsParams,
     /// Where the rover starts instead of the world's start: x, y, floor
-    /// z (m, world frame) and yaw (degrees). Home is there too; the
-    /// world's scripted route, which begins at its own start, is dropped.
-    pub start: Option<[f64; 4]>,
+    /// z (m, world frame) and yaw (degrees), or one of the world's
+    /// waypoints by name (`speleo world waypoints`). Home is there too;
+    /// the world's scripted route, which begins at its own start, is
+    /// dropped.
+    pub start: Option<StartSpec>,
+    /// What makes the mission a success (the report's `success`).
+    pub success: speleo_campaign::success::SuccessCriteria,
+}
+
+/// A start: a pose, or a waypoint's name.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum StartSpec {
+    Pose([f64; 4]),
+    Waypoint(String),
 }
 
 /// A loop closure that claims keyframe `newer` sits at `offset_m` and
@@ -174,6 +186,7 @@ impl Default for SimConfig {
             faults: Vec::new(),
             rover: speleo_hal::sim::PhysicsParams::default(),
             start: None,
+            success: Default::default(),
         }
     }
 }
@@ -599,13 +612,26 @@ impl Config {
             1.0e6,
             "0..=1000000",
         )?;
-        if let Some(st) = s.start {
-            if !st.iter().all(|v| v.is_finite()) {
+        match &s.start {
+            Some(StartSpec::Pose(st)) if !st.iter().all(|v| v.is_finite()) => {
                 return Err(ConfigError::Invalid {
                     key: "sim.start".into(),
                     why: "x, y, floor z (m) and yaw (degrees) must be finite numbers".into(),
                 });
             }
+            Some(StartSpec::Waypoint(w)) if w.trim().is_empty() => {
+                return Err(ConfigError::Invalid {
+                    key: "sim.start".into(),
+                    why: "name a waypoint of the world or give x, y, z, yaw".into(),
+                });
+            }
+            _ => {}
+        }
+        if let Err(why) = s.success.validate("sim.success") {
+            return Err(ConfigError::Invalid {
+                key: "sim.success".into(),
+                why,
+            });
         }
         if s.world.is_empty() {
             return Err(ConfigError::Invalid {
@@ -969,7 +995,9 @@ mod tests {
     #[test]
     fn a_start_pose_is_read_and_a_non_finite_one_is_named() {
         let c = Config::from_toml("[sim]\nstart = [2.5, 2.3, 3.0, 90.0]\n").expect("read");
-        assert_eq!(c.sim.start, Some([2.5, 2.3, 3.0, 90.0]));
+        assert_eq!(c.sim.start, Some(StartSpec::Pose([2.5, 2.3, 3.0, 90.0])));
+        let c = Config::from_toml("[sim]\nstart = \"m50\"\n").expect("read");
+        assert_eq!(c.sim.start, Some(StartSpec::Waypoint("m50".into())));
         let e = Config::from_toml("[sim]\nstart = [2.5, nan, 3.0, 0.0]\n").expect_err("refused");
         assert!(e.to_string().contains("sim.start"), "{e}");
         let e = Config::from_toml("[sim]\nstart = [2.5, 2.3]\n").expect_err("refused");

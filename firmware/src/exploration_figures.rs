@@ -32,6 +32,10 @@ pub struct ExplorationFigures {
     pub coverage_fraction: Option<f64>,
     pub home_error_m: Option<f64>,
     pub distance_m: Option<f64>,
+    /// Simulation only: the farthest the true track went from the start,
+    /// m, and where the rover ended (world frame).
+    pub reach_m: Option<f64>,
+    pub end_position: Option<[f64; 3]>,
     pub collisions: Option<u64>,
     /// Simulation only: the rover's falls (it sank faster than 3 m/s,
     /// about half a metre of free fall), the worst one's height, m, and

@@ -3,6 +3,7 @@
 //! reports. `main.rs` is only the entry point.
 
 pub mod bus;
+pub mod campaign;
 pub mod cli;
 pub mod config;
 pub mod exploration_figures;

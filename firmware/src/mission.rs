@@ -91,6 +91,8 @@ pub struct MemoryFigures {
 }
 
 pub struct MissionResult {
+    /// A simulated mission's verdict against `[sim.success]`.
+    pub success: Option<speleo_campaign::success::Success>,
     /// The exploration's figures (when exploring), and the graph of the
     /// ground it mapped (map frame) with the map frame's origin and
     /// heading in the world (simulation), for the coverage figures.
@@ -776,6 +778,17 @@ pub fn run<C: FrameClock>(
             );
             // In 3D: a garage rover that ended over home on a deck is not
             // home.
+            f.reach_m = s.first().map(|a| {
+                s.iter()
+                    .map(|b| {
+                        ((a.1[0] - b.1[0]).powi(2)
+                            + (a.1[1] - b.1[1]).powi(2)
+                            + (a.1[2] - b.1[2]).powi(2))
+                        .sqrt()
+                    })
+                    .fold(0.0, f64::max)
+            });
+            f.end_position = s.last().map(|b| b.1);
             if let (Some(a), Some(b)) = (s.first(), s.last()) {
                 f.home_error_m = Some(
                     ((a.1[0] - b.1[0]).powi(2)
@@ -789,6 +802,7 @@ pub fn run<C: FrameClock>(
     });
     let t = tap.borrow();
     Ok(MissionResult {
+        success: None,
         memory,
         faults: fault_log.figures(),
         exploration,

@@ -20,7 +20,7 @@ use crate::cli::{
     DecodeCommand, G2oArgs, MeshArgs, Outputs, Pcap2mcapArgs, RegisterArgs, ReplayArgs, RunArgs,
     SimArgs, ValidateArgs, WorldExportArgs,
 };
-use crate::config::Config;
+use crate::config::{Config, StartSpec};
 use crate::faults::inject::{FaultClock, FaultyHardware};
 use crate::mission::{self, Length, MissionInputs, MissionResult};
 use crate::record::compare::Comparer;
@@ -330,6 +330,9 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     if let Some(w) = &a.world {
         cfg.sim.world = w.clone();
     }
+    if let Some(st) = &a.start {
+        cfg.sim.start = Some(StartSpec::Waypoint(st.clone()));
+    }
     if a.route {
         cfg.exploration.enabled = false;
     }
@@ -361,8 +364,15 @@ pub(crate) fn simulate(
 ) -> Result<MissionResult, Error> {
     cfg.validate()?;
     let mut world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
-    if let Some([x, y, z, yaw_deg]) = cfg.sim.start {
-        world.start = [x, y, z, yaw_deg.to_radians()];
+    if let Some(spec) = &cfg.sim.start {
+        world.start = match spec {
+            StartSpec::Pose([x, y, z, yaw_deg]) => [*x, *y, *z, yaw_deg.to_radians()],
+            StartSpec::Waypoint(name) => {
+                let named = crate::tools::plan_world::waypoints(&world);
+                crate::tools::plan_world::pose_of(name, &named)
+                    .map_err(|e| format!("sim.start: {e}"))?
+            }
+        };
         // The scripted route begins at the world's own start.
         world.route.clear();
     }
@@ -410,7 +420,30 @@ pub(crate) fn simulate(
         );
     }
     exploration_truth(cfg, &world, &strikes, &mut result)?;
+    result.success = result
+        .exploration
+        .as_ref()
+        .map(|e| mission_success(e, result.frames < frames, &cfg.sim.success));
     Ok(result)
+}
+
+/// A simulated exploration judged against its criteria.
+fn mission_success(
+    e: &crate::exploration_figures::ExplorationFigures,
+    ended_before_limit: bool,
+    criteria: &speleo_campaign::success::SuccessCriteria,
+) -> speleo_campaign::success::Success {
+    let facts = speleo_campaign::success::MissionFacts {
+        state: e.state.clone(),
+        ended_before_limit,
+        home_error_m: e.home_error_m,
+        coverage: e.coverage_fraction,
+        reach_m: e.reach_m,
+        collisions: e.collisions.unwrap_or(0),
+        falls: e.falls.unwrap_or(0),
+        wrecked: e.wrecked.unwrap_or(false),
+    };
+    speleo_campaign::success::judge(&facts, criteria)
 }
 
 /// The explored graph and the tracks, in the world frame when the map

@@ -30,6 +30,9 @@ pub struct Report<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub internal_sim: Option<&'a crate::exploration_figures::InternalSimFigures>,
     pub faults: &'a crate::faults::log::FaultFigures,
+    /// A simulated exploration's verdict, each part of success named.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub success: Option<&'a speleo_campaign::success::Success>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub memory: Option<crate::mission::MemoryFigures>,
 }
@@ -116,6 +119,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         exploration: r.exploration.as_ref(),
         internal_sim: r.internal_sim.as_ref(),
         faults: &r.faults,
+        success: r.success.as_ref(),
         memory: r.memory,
     }
 }

@@ -1,0 +1,263 @@
+//! `speleo campaign` as a user meets it: a tiny matrix of short missions
+//! planned, run two at a time, killed halfway and resumed, a crash
+//! recorded, a case run through a cluster's index variable, reproduced,
+//! and reported.
+
+#![allow(clippy::unwrap_used)] // a broken fixture fails the test where it breaks
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn speleo(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_speleo"))
+        .args(args)
+        .arg("--no-progress")
+        .output()
+        .expect("speleo runs")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+fn ok(o: &Output) -> String {
+    assert!(
+        o.status.success(),
+        "exit {:?}\nstdout: {}\nstderr: {}",
+        o.status,
+        text(&o.stdout),
+        text(&o.stderr)
+    );
+    text(&o.stdout)
+}
+
+fn outcomes(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir.join("cases"))
+        .map(|r| {
+            r.filter_map(|e| e.ok())
+                .map(|e| e.path().join("outcome.json"))
+                .filter(|p| p.exists())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).expect("read")).expect("json")
+}
+
+/// Processes whose command line names `needle`.
+fn processes_naming(needle: &str) -> usize {
+    let Ok(rd) = std::fs::read_dir("/proc") else {
+        return 0;
+    };
+    rd.filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().parse::<u32>().is_ok())
+        .filter(|e| {
+            std::fs::read(e.path().join("cmdline"))
+                .map(|c| String::from_utf8_lossy(&c).contains(needle))
+                .unwrap_or(false)
+        })
+        .count()
+}
+
+/// Six flat-ground missions of a few seconds, and one on a mesh world
+/// that is deleted once planned (its case must crash).
+fn plan(t: &Path) -> PathBuf {
+    let mesh = t.join("ground.ply");
+    ok(&speleo(&[
+        "world",
+        "export",
+        "flat",
+        mesh.to_str().unwrap(),
+    ]));
+    let matrix = t.join("tiny.toml");
+    std::fs::write(
+        &matrix,
+        r#"name = "tiny"
+timeout_s = 600
+
+[[group]]
+worlds = ["flat"]
+noise_seeds = [1, 2, 3, 4, 5, 6]
+duration_s = 4
+
+[[group]]
+worlds = ["ground.ply"]
+duration_s = 4
+"#,
+    )
+    .unwrap();
+    let dir = t.join("campaign");
+    let out = ok(&speleo(&[
+        "campaign",
+        "plan",
+        matrix.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]));
+    assert!(out.starts_with("7 cases planned"), "{out}");
+    assert!(out.contains("--array=0-6"), "{out}");
+    let manifest = std::fs::read_to_string(dir.join("manifest.toml")).unwrap();
+    assert!(manifest.contains("case_count = 7"), "{manifest}");
+    std::fs::remove_file(&mesh).unwrap();
+    dir
+}
+
+#[test]
+fn a_campaign_killed_halfway_resumes_records_its_crash_and_reports() {
+    let t = tempfile::tempdir().unwrap();
+    let dir = plan(t.path());
+    let d = dir.to_str().unwrap();
+
+    // Two at a time, killed once some cases have finished.
+    let mut runner = Command::new(env!("CARGO_BIN_EXE_speleo"))
+        .args(["campaign", "run", d, "--jobs", "2", "--no-progress"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let started = Instant::now();
+    while outcomes(&dir).len() < 2 {
+        assert!(
+            started.elapsed() < Duration::from_secs(600),
+            "no case finished"
+        );
+        assert!(
+            runner.try_wait().unwrap().is_none(),
+            "the runner ended early"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    runner.kill().unwrap();
+    runner.wait().unwrap();
+    let before = outcomes(&dir).len();
+    assert!(before < 7, "killed after every case had run");
+    // Its cases die with it.
+    let gone = Instant::now();
+    while processes_naming(d) > 0 {
+        assert!(gone.elapsed() < Duration::from_secs(10), "orphaned cases");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+
+    // Resumed: what finished is skipped, the rest run.
+    let out = ok(&speleo(&["campaign", "run", d, "--jobs", "2"]));
+    assert!(
+        out.contains(&format!("{} cases run", 7 - before))
+            && out.contains(&format!("{before} finished before")),
+        "{out}"
+    );
+    assert_eq!(outcomes(&dir).len(), 7);
+    let crash = json(&dir.join("cases/0006/outcome.json"));
+    assert_eq!(crash["status"], "crashed");
+    let tail = crash["log_tail"].to_string();
+    assert!(tail.contains("ground.ply"), "{tail}");
+    let ran = json(&dir.join("cases/0000/outcome.json"));
+    assert_eq!(ran["status"], "ran");
+    let report = json(&dir.join("cases/0000/report.json"));
+    assert_eq!(report["success"]["failure"], "out_of_time");
+
+    // Run again: nothing left to do.
+    let out = ok(&speleo(&["campaign", "run", d]));
+    assert!(
+        out.contains("0 cases run") && out.contains("7 finished before"),
+        "{out}"
+    );
+
+    // Judged.
+    let summary = t.path().join("summary.json");
+    let out = ok(&speleo(&[
+        "campaign",
+        "report",
+        d,
+        "--json",
+        summary.to_str().unwrap(),
+    ]));
+    assert!(
+        out.contains("**Success: 0/7 = 0 % (95 % CI 0-35 %)**"),
+        "{out}"
+    );
+    let s = json(&summary);
+    assert_eq!(s["missing"], 0);
+    let causes: Vec<(String, usize)> = s["failures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| {
+            (
+                f["cause"].as_str().unwrap().to_string(),
+                f["cases"].as_array().unwrap().len(),
+            )
+        })
+        .collect();
+    assert_eq!(
+        causes,
+        vec![("crash".to_string(), 1), ("out_of_time".to_string(), 6)]
+    );
+}
+
+#[test]
+fn one_case_runs_through_the_cluster_index_variable_and_reproduces_its_hash() {
+    let t = tempfile::tempdir().unwrap();
+    let dir = plan(t.path());
+    let d = dir.to_str().unwrap();
+    // The shipped Slurm batch file, as an array task runs it.
+    let sbatch = Path::new(env!("CARGO_MANIFEST_DIR")).join("../deploy/slurm/campaign.sbatch");
+    let o = Command::new("bash")
+        .arg(&sbatch)
+        .arg(d)
+        .env("SLURM_ARRAY_TASK_ID", "3")
+        .env("SPELEO", env!("CARGO_BIN_EXE_speleo"))
+        .output()
+        .unwrap();
+    ok(&o);
+    assert_eq!(outcomes(&dir), vec![dir.join("cases/0003/outcome.json")]);
+    assert_eq!(json(&dir.join("cases/0003/outcome.json"))["status"], "ran");
+
+    let out = ok(&speleo(&["campaign", "run", d, "--case", "3", "--verify"]));
+    assert!(out.contains("reproduced"), "{out}");
+
+    // A partial campaign says how much is missing.
+    let out = ok(&speleo(&["campaign", "report", d]));
+    assert!(out.contains("Partial: 6 of 7 cases"), "{out}");
+
+    let o = speleo(&["campaign", "run", d, "--case", "7"]);
+    assert!(!o.status.success());
+    assert!(text(&o.stderr).contains("case 7"), "{}", text(&o.stderr));
+}
+
+#[test]
+fn a_bad_matrix_is_refused_with_the_key_named() {
+    let t = tempfile::tempdir().unwrap();
+    let m = t.path().join("m.toml");
+    let out = t.path().join("c");
+    for (body, key) in [
+        ("name = \"x\"\n[[group]]\nworlds = [\"flat\"]\nnoise = [1]\n", "noise"),
+        ("name = \"x\"\n[[group]]\nworlds = [\"atlantis\"]\n", "atlantis"),
+        ("name = \"x\"\n", "group"),
+        (
+            "name = \"x\"\n[[group]]\nworlds = [\"flat\"]\nvariants = [\"v\"]\n[variants.v]\nplanner = { max_bumpp_m = 1 }\n",
+            "max_bumpp_m",
+        ),
+        (
+            "name = \"x\"\n[[group]]\nscenarios = [\"s\"]\n[scenarios.s]\nworld = \"lava-tube\"\nstart = \"m5000\"\nduration_s = 10\nreach_m = 5\n",
+            "m5000",
+        ),
+    ] {
+        std::fs::write(&m, body).unwrap();
+        let o = speleo(&[
+            "campaign",
+            "plan",
+            m.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(!o.status.success(), "{body}");
+        let e = text(&o.stderr);
+        assert!(e.contains(key), "{body}: {e}");
+        assert!(!out.join("manifest.toml").exists());
+    }
+}

@@ -1,0 +1,287 @@
+//! Runs a planned campaign's cases as separate `speleo sim` processes,
+//! N at a time, or one case alone (a cluster's array task).
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use crate::manifest::{Manifest, CONFIG, LOG, REPORT};
+use crate::matrix::Case;
+use crate::outcome::{host_name, tail, Outcome, Status};
+
+/// Lines of a failed case's log kept in its outcome.
+const LOG_TAIL_LINES: usize = 20;
+/// How often a running case is looked at.
+const POLL: Duration = Duration::from_millis(50);
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RunTally {
+    /// Cases finished before this run began (skipped).
+    pub skipped: usize,
+    /// Cases run now, and those of them that did not run to their end.
+    pub ran: usize,
+    pub failed: usize,
+}
+
+/// The program a case runs: `speleo` itself, with arguments before `sim`
+/// (tests point it elsewhere).
+#[derive(Clone, Debug)]
+pub struct Program {
+    pub exe: PathBuf,
+    pub leading_args: Vec<String>,
+}
+
+impl Program {
+    /// The running binary.
+    pub fn this() -> Result<Program, String> {
+        let exe = std::env::current_exe().map_err(|e| format!("the running binary: {e}"))?;
+        Ok(Program {
+            exe,
+            leading_args: Vec::new(),
+        })
+    }
+}
+
+/// Runs one case to its end and records how it ended; a case already
+/// finished is left as it is (`None`).
+pub fn run_case(
+    dir: &Path,
+    m: &Manifest,
+    id: usize,
+    p: &Program,
+) -> Result<Option<Outcome>, String> {
+    let case = m.cases.get(id).ok_or_else(|| {
+        format!(
+            "case {id}: the campaign has cases 0 to {}",
+            m.case_count.saturating_sub(1)
+        )
+    })?;
+    let cd = Manifest::case_dir(dir, case);
+    if let Some(done) = crate::outcome::Outcome::load(&cd) {
+        done?;
+        return Ok(None);
+    }
+    let o = execute(&cd, case, p, m.timeout_s)?;
+    o.save(&cd)?;
+    Ok(Some(o))
+}
+
+/// Runs `case` in `cd` (its configuration there), writing its report and
+/// log there.
+pub fn execute(cd: &Path, case: &Case, p: &Program, timeout_s: f64) -> Result<Outcome, String> {
+    let report = cd.join(REPORT);
+    let log_path = cd.join(LOG);
+    // What an interrupted earlier attempt left is not this run's.
+    let _ = std::fs::remove_file(&report);
+    let log =
+        std::fs::File::create(&log_path).map_err(|e| format!("{}: {e}", log_path.display()))?;
+    let log2 = log
+        .try_clone()
+        .map_err(|e| format!("{}: {e}", log_path.display()))?;
+    let mut cmd = Command::new(&p.exe);
+    cmd.args(&p.leading_args)
+        .arg("sim")
+        .arg("--no-progress")
+        .arg("--config")
+        .arg(cd.join(CONFIG))
+        .arg("--report")
+        .arg(&report)
+        .stdin(Stdio::null())
+        .stdout(log)
+        .stderr(log2);
+    die_with_parent(&mut cmd);
+    let started = Instant::now();
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| format!("case {}: cannot start {}: {e}", case.id, p.exe.display()))?;
+    let (status, timed_out) = wait(&mut child, Duration::from_secs_f64(timeout_s))?;
+    let wall_time_s = started.elapsed().as_secs_f64();
+    let signal = std::os::unix::process::ExitStatusExt::signal(&status);
+    let status_kind = if timed_out {
+        Status::Hung
+    } else if signal.is_some() {
+        Status::Killed
+    } else if status.success() && report.exists() {
+        Status::Ran
+    } else {
+        Status::Crashed
+    };
+    Ok(Outcome {
+        status: status_kind,
+        exit_code: status.code(),
+        signal,
+        wall_time_s,
+        host: host_name(),
+        log_tail: if status_kind == Status::Ran {
+            Vec::new()
+        } else {
+            tail(&log_path, LOG_TAIL_LINES)
+        },
+    })
+}
+
+/// Waits for the child, killing it past `limit`; whether it was killed so.
+fn wait(child: &mut Child, limit: Duration) -> Result<(ExitStatus, bool), String> {
+    let started = Instant::now();
+    loop {
+        if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
+            return Ok((s, false));
+        }
+        if started.elapsed() >= limit {
+            let _ = child.kill();
+            let s = child.wait().map_err(|e| e.to_string())?;
+            return Ok((s, true));
+        }
+        std::thread::sleep(POLL);
+    }
+}
+
+/// A case's process leaves the terminal's process group (Ctrl-C stops the
+/// campaign, not its cases one by one, which would read as failures) and
+/// dies with the runner, so a killed campaign leaves no orphans and no
+/// outcome: the next run starts those cases again.
+fn die_with_parent(cmd: &mut Command) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec only async-signal-safe calls are made
+    // (setpgid and prctl), and nothing is allocated.
+    unsafe {
+        cmd.pre_exec(|| {
+            libc::setpgid(0, 0);
+            libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+            // The runner may have died between fork and prctl.
+            if libc::getppid() == 1 {
+                libc::_exit(1);
+            }
+            Ok(())
+        });
+    }
+}
+
+/// Runs every unfinished case, `jobs` at a time, with a progress bar
+/// (cases done, failed, time left) when `progress`.
+pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<RunTally, String> {
+    let m = Manifest::load(dir)?;
+    let mut pending = Vec::new();
+    let mut tally = RunTally::default();
+    for c in &m.cases {
+        match Outcome::load(&Manifest::case_dir(dir, c)) {
+            Some(done) => {
+                done?;
+                tally.skipped += 1;
+            }
+            None => pending.push(c.id),
+        }
+    }
+    let bar = if progress {
+        indicatif::ProgressBar::new(m.case_count as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:30} {pos}/{len} cases, {msg} [{elapsed_precise}, ETA {eta_precise}]",
+        )
+        .map_err(|e| e.to_string())?,
+    );
+    bar.set_position(tally.skipped as u64);
+    bar.reset_eta();
+    bar.set_message("0 failed");
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = mpsc::channel::<(usize, Result<Outcome, String>)>();
+    let jobs = jobs.max(1).min(pending.len().max(1));
+    std::thread::scope(|s| {
+        for _ in 0..jobs {
+            let tx = tx.clone();
+            let (m, pending, next) = (&m, &pending, &next);
+            s.spawn(move || loop {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&id) = pending.get(i) else { break };
+                let r = run_case(dir, m, id, p).map(|o| {
+                    o.unwrap_or(Outcome {
+                        status: Status::Ran,
+                        exit_code: Some(0),
+                        signal: None,
+                        wall_time_s: 0.0,
+                        host: String::new(),
+                        log_tail: Vec::new(),
+                    })
+                });
+                if tx.send((id, r)).is_err() {
+                    break;
+                }
+            });
+        }
+        drop(tx);
+        let mut first_error = None;
+        for (id, r) in rx {
+            tally.ran += 1;
+            match r {
+                Ok(o) if o.status == Status::Ran => {}
+                Ok(o) => {
+                    tally.failed += 1;
+                    bar.println(format!(
+                        "case {id} ({}): {:?} after {:.0} s{}",
+                        m.cases[id].key(),
+                        o.status,
+                        o.wall_time_s,
+                        o.log_tail
+                            .last()
+                            .map_or(String::new(), |l| format!(": {l}"))
+                    ));
+                }
+                Err(e) => {
+                    tally.failed += 1;
+                    bar.println(format!("case {id}: {e}"));
+                    first_error.get_or_insert(e);
+                }
+            }
+            bar.inc(1);
+            bar.set_message(format!("{} failed", tally.failed));
+        }
+        bar.finish();
+        match first_error {
+            // The tool itself could not run a case (no binary, no disk):
+            // the campaign cannot go on meaningfully.
+            Some(e) if tally.ran == tally.failed => Err(e),
+            _ => Ok(()),
+        }
+    })?;
+    Ok(tally)
+}
+
+/// Runs a finished case again in a scratch folder (`again/` in its
+/// folder): its recorded output hash and the new one.
+pub fn verify_case(
+    dir: &Path,
+    m: &Manifest,
+    id: usize,
+    p: &Program,
+) -> Result<(String, String), String> {
+    let case = m
+        .cases
+        .get(id)
+        .ok_or_else(|| format!("case {id}: the campaign has {} cases", m.case_count))?;
+    let cd = Manifest::case_dir(dir, case);
+    let recorded = crate::summary::output_hash(&cd.join(REPORT))
+        .ok_or_else(|| format!("case {id} has no report to compare with; run it first"))?;
+    let scratch = cd.join("again");
+    std::fs::create_dir_all(&scratch).map_err(|e| format!("{}: {e}", scratch.display()))?;
+    std::fs::copy(cd.join(CONFIG), scratch.join(CONFIG))
+        .map_err(|e| format!("{}: {e}", scratch.display()))?;
+    let o = execute(&scratch, case, p, m.timeout_s)?;
+    if o.status != Status::Ran {
+        return Err(format!(
+            "case {id} again: {:?}{}",
+            o.status,
+            o.log_tail
+                .last()
+                .map_or(String::new(), |l| format!(": {l}"))
+        ));
+    }
+    let again = crate::summary::output_hash(&scratch.join(REPORT))
+        .ok_or_else(|| format!("case {id} again wrote no output hash"))?;
+    Ok((recorded, again))
+}
