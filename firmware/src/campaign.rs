@@ -154,5 +154,68 @@ fn report(a: CampaignReportArgs) -> Result<ExitCode, Error> {
     if let Some(p) = &a.markdown {
         std::fs::write(p, &md).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
     }
+    if let Some(p) = &a.plot {
+        let mut maps = Vec::new();
+        for ((world, seed), cases) in speleo_campaign::plot::cases_by_world(&s) {
+            let w = speleo_hal::world::World::build(&world, seed)
+                .map_err(|e| format!("the plot's map of {world}: {e}"))?;
+            let name = Path::new(&world)
+                .file_name()
+                .map_or(world.clone(), |n| n.to_string_lossy().into_owned());
+            let (floor, floor_cell_m) = floor_from_above(&w.mesh);
+            maps.push(speleo_campaign::plot::FloorMap {
+                title: format!("{name} (seed {seed})"),
+                floor,
+                floor_cell_m,
+                cases,
+            });
+        }
+        speleo_campaign::plot::write_plot(p, &s, &maps)?;
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The floor seen from above: the centre of every cell under some face
+/// within 20 degrees of level, facing up, with its size, m (a plot's
+/// pixel or two: 0.25 m, coarser for a large world).
+fn floor_from_above(m: &speleo_hal::world::mesh::Mesh) -> (Vec<[f64; 2]>, f64) {
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    for v in &m.vertices {
+        for k in 0..2 {
+            lo[k] = lo[k].min(f64::from(v[k]));
+            hi[k] = hi[k].max(f64::from(v[k]));
+        }
+    }
+    let cell = ((hi[0] - lo[0]).max(hi[1] - lo[1]) / 600.0).max(0.25);
+    let mut cells = std::collections::BTreeSet::new();
+    let cos_max = 20f64.to_radians().cos();
+    for t in 0..m.triangles.len() {
+        let (_, n) = m.triangle_geometry(t);
+        if n[2] < cos_max {
+            continue;
+        }
+        let v = m.triangles[t].map(|i| m.vertices[i as usize].map(f64::from));
+        let longest = (0..3)
+            .map(|k| {
+                let (a, b) = (v[k], v[(k + 1) % 3]);
+                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+            })
+            .fold(0.0, f64::max);
+        let n_steps = ((longest / (0.5 * cell)).ceil() as usize).clamp(1, 4000);
+        for i in 0..=n_steps {
+            for j in 0..=(n_steps - i) {
+                let (a, b) = (i as f64 / n_steps as f64, j as f64 / n_steps as f64);
+                let c = 1.0 - a - b;
+                let x = a * v[0][0] + b * v[1][0] + c * v[2][0];
+                let y = a * v[0][1] + b * v[1][1] + c * v[2][1];
+                cells.insert(((x / cell).floor() as i64, (y / cell).floor() as i64));
+            }
+        }
+    }
+    let centres = cells
+        .into_iter()
+        .map(|(i, j)| [(i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell])
+        .collect();
+    (centres, cell)
 }

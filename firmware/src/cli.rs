@@ -140,6 +140,11 @@ pub struct CampaignReportArgs {
     /// Write the summary as Markdown too (as printed).
     #[arg(long, value_name = "OUT.md")]
     pub markdown: Option<PathBuf>,
+    /// Draw the outcomes as a PNG: each world's floor from above with
+    /// where every mission ended, coloured by outcome, and the coverage
+    /// histogram.
+    #[arg(long, value_name = "OUT.png")]
+    pub plot: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

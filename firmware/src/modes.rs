@@ -383,7 +383,9 @@ pub(crate) fn simulate(
         cfg.validate()?;
     }
     schedule_table::build(cfg)?;
-    let params = sim_params(cfg);
+    let mut params = sim_params(cfg);
+    // A start away from the world's own stands on the ground there.
+    params.start_on_ground = cfg.sim.start.is_some();
     let mut sim_hw = SimHardware::with_world(&params, &world)?;
     let truth = sim_hw.truth_probe();
     let faults = crate::faults::parse_all(&cfg.sim.faults)?;

@@ -36,6 +36,7 @@ pub fn sim_with_trajectory(
     modes::sim(
         SimArgs {
             world: None,
+            start: None,
             seed: Some(seed),
             noise_seed: None,
             duration: Some(duration_s),

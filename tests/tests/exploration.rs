@@ -22,6 +22,7 @@ fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> s
     modes::sim(
         SimArgs {
             world: Some(world.into()),
+            start: None,
             seed: Some(1),
             noise_seed: None,
             duration: Some(duration_s),

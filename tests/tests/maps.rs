@@ -82,6 +82,7 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
     speleo_firmware::modes::sim(
         speleo_firmware::cli::SimArgs {
             world: None,
+            start: None,
             seed: Some(SEED),
             noise_seed: None,
             duration: Some(SECONDS),

@@ -5,11 +5,12 @@
 //! ([`matrix`]), written to a folder ([`manifest`]), run as separate
 //! `speleo sim` processes locally or one case per cluster task
 //! ([`runner`], [`outcome`]), and judged ([`success`], [`summary`],
-//! [`stats`]).
+//! [`stats`], [`plot`]).
 
 pub mod manifest;
 pub mod matrix;
 pub mod outcome;
+pub mod plot;
 pub mod runner;
 pub mod stats;
 pub mod success;

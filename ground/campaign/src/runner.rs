@@ -89,6 +89,8 @@ pub fn execute(cd: &Path, case: &Case, p: &Program, timeout_s: f64) -> Result<Ou
         .arg(cd.join(CONFIG))
         .arg("--report")
         .arg(&report)
+        // A log file, not a terminal: no colour codes in it.
+        .env("NO_COLOR", "1")
         .stdin(Stdio::null())
         .stdout(log)
         .stderr(log2);

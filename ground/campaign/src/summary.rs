@@ -19,6 +19,7 @@ pub struct CaseRow {
     pub id: usize,
     pub key: String,
     pub world: String,
+    pub world_seed: u64,
     pub scenario: Option<String>,
     pub variant: String,
     /// `None`: not run to its end yet.
@@ -120,6 +121,7 @@ fn row(dir: &Path, c: &Case) -> Result<CaseRow, String> {
         id: c.id,
         key: c.key(),
         world: c.world.clone(),
+        world_seed: c.world_seed,
         scenario: c.scenario.clone(),
         variant: c.variant.clone(),
         status: outcome.as_ref().map(|o| o.status),

@@ -17,6 +17,7 @@ pub mod imu;
 pub mod lidar;
 pub mod noise;
 pub mod physics;
+pub mod put_down;
 pub mod quat;
 pub mod ray_caster;
 pub mod rover;
@@ -50,6 +51,10 @@ pub struct SimParams {
     /// Sensor on base_link (the chassis frame at axle height): x, y, z (m)
     /// and roll, pitch, yaw (rad).
     pub lidar_mount: [f64; 6],
+    /// Put the physics rover down on the ground under its wheels, pitched
+    /// and rolled as it slopes (a start anywhere in a world), rather than
+    /// level at the start's height (a world's own start, chosen level).
+    pub start_on_ground: bool,
 }
 
 impl Default for SimParams {
@@ -62,6 +67,7 @@ impl Default for SimParams {
             drives: drives::DriveParams::default(),
             lidar: None,
             lidar_mount: [0.0, 0.0, 0.35, 0.0, 0.0, 0.0],
+            start_on_ground: false,
         }
     }
 }
@@ -134,12 +140,20 @@ impl SimHardware {
     /// LiDAR twin (when `p.lidar` is set) casting rays against its mesh.
     pub fn with_world(p: &SimParams, world: &crate::world::World) -> Result<Self, String> {
         let motion = match &p.physics {
-            Some(pp) => Motion::Physics(Box::new(physics::PhysicsRover::new(
-                pp,
-                &world.mesh,
-                world.start,
-                STEP_NS as f64 * 1e-9,
-            )?)),
+            Some(pp) => {
+                let (start, tilt) = if p.start_on_ground {
+                    put_down::standing(&world.mesh, world.start, pp.wheelbase_m, pp.track_width_m)
+                } else {
+                    (world.start, [0.0; 2])
+                };
+                Motion::Physics(Box::new(physics::PhysicsRover::new_tilted(
+                    pp,
+                    &world.mesh,
+                    start,
+                    tilt,
+                    STEP_NS as f64 * 1e-9,
+                )?))
+            }
             None => {
                 // base_link is at axle height on the kinematic rover too.
                 let [x, y, z, yaw] = world.start;
