@@ -115,7 +115,7 @@ fn run(a: CampaignRunArgs, progress: bool) -> Result<ExitCode, Error> {
     }
     if let Some(k) = a.case {
         match runner::run_case(&a.dir, &m, k, &program)? {
-            None => println!("case {k}: finished before; skipped"),
+            None => println!("case {k}: finished before, or another runner holds it; skipped"),
             Some(o) => println!(
                 "case {k} ({}): {:?} in {:.0} s{}",
                 m.cases[k].key(),

@@ -503,11 +503,28 @@ fn exploration_truth(
     f.worst_fall_m = Some(strikes.worst_fall_m);
     f.wrecked = Some(strikes.wrecked);
     let (Some(explored), Some((origin, heading))) = (&r.explored, r.world_from_map) else {
+        // No ground of the rover's own map is reachable from where it went:
+        // it explored nothing, whatever the world's floor.
+        f.coverage_fraction = Some(0.0);
         return Ok(());
     };
     let truth_mls = crate::tools::plan_world::surface_map(world)?;
+    // From the start or, where a scanned floor has a hole or a rock right
+    // under it, from a ring round it.
     let [x, y, z, _] = world.start;
-    let Some(truth) = ef::reachable(&truth_mls, &[[x, y, z]], &cfg.planner.trav_params()) else {
+    let tp = cfg.planner.trav_params();
+    let ring: Vec<[f64; 3]> = (0..8)
+        .map(|k| {
+            let a = f64::from(k) * std::f64::consts::FRAC_PI_4;
+            [x + 0.3 * a.cos(), y + 0.3 * a.sin(), z]
+        })
+        .collect();
+    let truth = ef::reachable(&truth_mls, &[[x, y, z]], &tp)
+        .or_else(|| ef::reachable(&truth_mls, &ring, &tp));
+    let Some(truth) = truth else {
+        tracing::warn!(
+            "no floor of the world's own surface under its start ({x:.2}, {y:.2}, {z:.2}): the reachable floor and the coverage are unknown"
+        );
         return Ok(());
     };
     let (s, c) = heading.sin_cos();

@@ -261,3 +261,37 @@ fn a_bad_matrix_is_refused_with_the_key_named() {
         assert!(!out.join("manifest.toml").exists());
     }
 }
+
+#[test]
+fn two_runners_on_one_folder_run_each_case_once() {
+    let t = tempfile::tempdir().unwrap();
+    let dir = plan(t.path());
+    let d = dir.to_str().unwrap();
+    let runner = || {
+        Command::new(env!("CARGO_BIN_EXE_speleo"))
+            .args(["campaign", "run", d, "--jobs", "1", "--no-progress"])
+            .stderr(Stdio::null())
+            .output()
+            .unwrap()
+    };
+    let (a, b) = std::thread::scope(|s| {
+        let a = s.spawn(runner);
+        let b = s.spawn(runner);
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    let ran = |o: &Output| -> usize {
+        let out = ok(o);
+        out.split(" cases run")
+            .next()
+            .and_then(|n| n.trim().parse().ok())
+            .unwrap_or_else(|| panic!("{out}"))
+    };
+    assert_eq!(
+        ran(&a) + ran(&b),
+        7,
+        "{} / {}",
+        text(&a.stdout),
+        text(&b.stdout)
+    );
+    assert_eq!(outcomes(&dir).len(), 7);
+}

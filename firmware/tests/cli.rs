@@ -483,3 +483,49 @@ fn an_imported_capture_replays_through_the_lidar_driver() {
         .unwrap_or(0);
     assert_eq!(clouds, 18, "revolutions completed in the capture");
 }
+
+#[test]
+fn a_mission_starts_at_a_named_waypoint_standing_on_the_ground_there() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let r = dir.path().join("r.json");
+    let r_s = r.to_str().expect("utf-8");
+    // The garage's level 1, where the first ramp arrives.
+    let out = speleo(&[
+        "sim",
+        "--world",
+        "garage",
+        "--start",
+        "level1",
+        "--duration",
+        "2",
+        "--report",
+        r_s,
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&r).expect("report")).expect("json");
+    let end = &v["exploration"]["end_position"];
+    let at = |k: usize| end[k].as_f64().expect("end position");
+    assert!(
+        (at(0) - 17.0).abs() < 0.5 && (at(1) - 17.7).abs() < 0.5,
+        "{end}"
+    );
+    // On level 1's deck (3 m), its base at axle height over it, not fallen
+    // to level 0 nor dropped from high.
+    assert!(at(2) > 3.0 && at(2) < 3.5, "{end}");
+    assert_eq!(v["exploration"]["falls"], 0);
+    assert_eq!(v["success"]["failure"], "out_of_time");
+
+    let out = speleo(&[
+        "sim",
+        "--world",
+        "garage",
+        "--start",
+        "level7",
+        "--duration",
+        "1",
+    ]);
+    assert!(!out.status.success());
+    let e = text(&out.stderr);
+    assert!(e.contains("level7") && e.contains("level1"), "{e}");
+}

@@ -19,7 +19,8 @@ const POLL: Duration = Duration::from_millis(50);
 /// What a run did.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct RunTally {
-    /// Cases finished before this run began (skipped).
+    /// Cases finished before this run began, or run by another runner on
+    /// the same folder meanwhile (skipped).
     pub skipped: usize,
     /// Cases run now, and those of them that did not run to their end.
     pub ran: usize,
@@ -60,6 +61,12 @@ pub fn run_case(
         )
     })?;
     let cd = Manifest::case_dir(dir, case);
+    // Another runner on the same folder (a second machine, a cluster's
+    // retry) may hold the case: it is theirs. The lock goes with the
+    // process that holds it, however it ends.
+    let Some(_lock) = CaseLock::take(&cd)? else {
+        return Ok(None);
+    };
     if let Some(done) = crate::outcome::Outcome::load(&cd) {
         done?;
         return Ok(None);
@@ -67,6 +74,38 @@ pub fn run_case(
     let o = execute(&cd, case, p, m.timeout_s)?;
     o.save(&cd)?;
     Ok(Some(o))
+}
+
+/// An exclusive hold on a case's folder (`flock` on its `lock` file),
+/// released when dropped.
+struct CaseLock {
+    _file: std::fs::File,
+}
+
+impl CaseLock {
+    /// The case's lock, or `None` when another process holds it.
+    fn take(case_dir: &Path) -> Result<Option<CaseLock>, String> {
+        use std::os::fd::AsRawFd;
+        let path = case_dir.join("lock");
+        let f = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        // SAFETY: flock on a descriptor this function owns.
+        let r = unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+        if r == 0 {
+            Ok(Some(CaseLock { _file: f }))
+        } else {
+            let e = std::io::Error::last_os_error();
+            if e.raw_os_error() == Some(libc::EWOULDBLOCK) {
+                Ok(None)
+            } else {
+                Err(format!("{}: cannot lock: {e}", path.display()))
+            }
+        }
+    }
 }
 
 /// Runs `case` in `cd` (its configuration there), writing its report and
@@ -177,6 +216,14 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
             None => pending.push(c.id),
         }
     }
+    // The shortest missions first: the campaign's first answers come
+    // early, and the long ones left at the end share the cores.
+    pending.sort_by(|&a, &b| {
+        m.cases[a]
+            .duration_s
+            .total_cmp(&m.cases[b].duration_s)
+            .then(a.cmp(&b))
+    });
     let bar = if progress {
         indicatif::ProgressBar::new(m.case_count as u64)
     } else {
@@ -192,7 +239,7 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
     bar.reset_eta();
     bar.set_message("0 failed");
     let next = AtomicUsize::new(0);
-    let (tx, rx) = mpsc::channel::<(usize, Result<Outcome, String>)>();
+    let (tx, rx) = mpsc::channel::<(usize, Result<Option<Outcome>, String>)>();
     let jobs = jobs.max(1).min(pending.len().max(1));
     std::thread::scope(|s| {
         for _ in 0..jobs {
@@ -201,16 +248,7 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
             s.spawn(move || loop {
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&id) = pending.get(i) else { break };
-                let r = run_case(dir, m, id, p).map(|o| {
-                    o.unwrap_or(Outcome {
-                        status: Status::Ran,
-                        exit_code: Some(0),
-                        signal: None,
-                        wall_time_s: 0.0,
-                        host: String::new(),
-                        log_tail: Vec::new(),
-                    })
-                });
+                let r = run_case(dir, m, id, p);
                 if tx.send((id, r)).is_err() {
                     break;
                 }
@@ -219,10 +257,15 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
         drop(tx);
         let mut first_error = None;
         for (id, r) in rx {
-            tally.ran += 1;
+            match &r {
+                // Finished or held by another runner meanwhile.
+                Ok(None) => tally.skipped += 1,
+                _ => tally.ran += 1,
+            }
             match r {
-                Ok(o) if o.status == Status::Ran => {}
-                Ok(o) => {
+                Ok(None) => {}
+                Ok(Some(o)) if o.status == Status::Ran => {}
+                Ok(Some(o)) => {
                     tally.failed += 1;
                     bar.println(format!(
                         "case {id} ({}): {:?} after {:.0} s{}",
