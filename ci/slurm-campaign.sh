@@ -203,6 +203,10 @@ for ((k = 0; k < n; k++)); do
   if [ ! -f "$case_dir/outcome.json" ]; then
     echo "slurm-campaign: case $k has no outcome.json" >&2
     missing=$((missing + 1))
+  elif ! grep -q '"status": "ran"' "$case_dir/outcome.json"; then
+    echo "slurm-campaign: case $k did not run its mission:" >&2
+    cat "$case_dir/outcome.json" >&2
+    missing=$((missing + 1))
   fi
   grep -qs "^campaign.sbatch: case $k of " "$dir/slurm/${jobid}_${k}.out" \
     || { echo "slurm-campaign: no Slurm output for case $k" >&2; missing=$((missing + 1)); }

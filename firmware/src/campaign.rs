@@ -50,8 +50,11 @@ fn plan(a: CampaignPlanArgs) -> Result<ExitCode, Error> {
         .expand(&ThisBinary)
         .map_err(|e| format!("{}: {e}", a.matrix.display()))?;
     manifest::write(&a.out, &text, &m, &cases)?;
+    // A Slurm task must outlast its case's own limit, or Slurm kills it
+    // before the case can be recorded as a hang.
+    let minutes = ((m.timeout_s + 600.0) / 60.0).ceil() as u64;
     println!(
-        "{} cases planned in {} (campaign \"{}\"); run them with `speleo campaign run {}`, or on Slurm with `sbatch --array=0-{} deploy/slurm/campaign.sbatch {}`",
+        "{} cases planned in {} (campaign \"{}\"); run them with `speleo campaign run {}`, or on Slurm with `sbatch --array=0-{} --time={minutes} deploy/slurm/campaign.sbatch {}`",
         cases.len(),
         a.out.display(),
         m.name,
@@ -89,9 +92,20 @@ fn run(a: CampaignRunArgs, progress: bool) -> Result<ExitCode, Error> {
     let program = Program::this()?;
     let m = Manifest::load(&a.dir)?;
     if a.verify {
+        // Every case that ran its mission, or the one asked for.
         let ids: Vec<usize> = match a.case {
             Some(k) => vec![k],
-            None => (0..m.case_count).collect(),
+            None => m
+                .cases
+                .iter()
+                .filter(|c| {
+                    matches!(
+                        speleo_campaign::outcome::Outcome::load(&Manifest::case_dir(&a.dir, c)),
+                        Some(Ok(o)) if o.status == speleo_campaign::outcome::Status::Ran
+                    )
+                })
+                .map(|c| c.id)
+                .collect(),
         };
         let mut differ = 0;
         for id in ids {

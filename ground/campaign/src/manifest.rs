@@ -37,6 +37,13 @@ impl Manifest {
             )
         })?;
         let m: Manifest = toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+        if !crate::matrix::timeout_ok(m.timeout_s) {
+            return Err(format!(
+                "{}: timeout_s = {}: must lie within 1..=1000000 s",
+                path.display(),
+                m.timeout_s
+            ));
+        }
         if m.case_count != m.cases.len() || m.cases.iter().enumerate().any(|(i, c)| c.id != i) {
             return Err(format!(
                 "{}: case_count {} and the {} cases listed do not agree",

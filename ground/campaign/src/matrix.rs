@@ -112,9 +112,14 @@ impl Case {
     /// What pairs a case with its twin in another campaign.
     pub fn key(&self) -> String {
         let noise = self.noise_seed.map_or("own".to_string(), |n| n.to_string());
+        // A mesh world by its file's name: the same world planned from
+        // another checkout pairs.
+        let world = std::path::Path::new(&self.world)
+            .file_name()
+            .map_or(self.world.clone(), |n| n.to_string_lossy().into_owned());
         format!(
             "{} seed {} noise {} {}{}",
-            self.world,
+            world,
             self.world_seed,
             noise,
             self.variant,
@@ -173,6 +178,37 @@ fn sub_table<'a>(t: &'a mut toml::Table, key: &str) -> &'a mut toml::Table {
     }
 }
 
+/// Whether a case's wall-time limit is one a runner can keep, s.
+pub fn timeout_ok(t: f64) -> bool {
+    (1.0..=1e6).contains(&t)
+}
+
+/// The keys of `[sim]` a case sets itself; a variant that set them would
+/// be silently overruled.
+const CASE_KEYS: [&str; 6] = [
+    "world",
+    "seed",
+    "noise_seed",
+    "duration_s",
+    "start",
+    "success",
+];
+
+/// Refuses a variant that sets what the matrix's axes set.
+fn check_variant(name: &str, v: &toml::Table) -> Result<(), String> {
+    if let Some(sim) = v.get("sim") {
+        let Some(sim) = sim.as_table() else {
+            return Err(format!("variants.{name}.sim: must be a table"));
+        };
+        if let Some(k) = CASE_KEYS.iter().find(|k| sim.contains_key(**k)) {
+            return Err(format!(
+                "variants.{name}.sim.{k}: set by the matrix's groups and scenarios, not by a variant"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// What the matrix needs to know of the binary it plans for: which worlds
 /// exist and what their waypoints are, and whether a configuration loads.
 pub trait Catalog {
@@ -193,8 +229,14 @@ impl Matrix {
         if self.name.trim().is_empty() {
             return Err("name: a matrix needs a name".into());
         }
-        if !(self.timeout_s.is_finite() && self.timeout_s > 0.0) {
-            return Err(format!("timeout_s = {}: must be positive", self.timeout_s));
+        if !timeout_ok(self.timeout_s) {
+            return Err(format!(
+                "timeout_s = {}: must lie within 1..=1000000 s",
+                self.timeout_s
+            ));
+        }
+        for (name, v) in &self.variants {
+            check_variant(name, v)?;
         }
         if self.groups.is_empty() {
             return Err("group: the matrix has no [[group]], so no cases".into());
@@ -273,7 +315,11 @@ impl Matrix {
                         Some(n) => n.clone(),
                         None => {
                             let n = catalog.waypoints(world, seed).map_err(|e| {
-                                format!("{}: unknown world \"{world}\": {e}", at("worlds"))
+                                let key = match scenario {
+                                    Some(s) => format!("scenarios.{s}.world"),
+                                    None => at("worlds"),
+                                };
+                                format!("{key}: unknown world \"{world}\": {e}")
                             })?;
                             waypoints.insert((world.clone(), seed), n.clone());
                             n
@@ -370,7 +416,10 @@ impl Matrix {
     ) -> Result<(), String> {
         let at = |key: &str| format!("scenarios.{name}.{key}");
         let is_pose = sc.start.split(',').count() == 4
-            && sc.start.split(',').all(|t| t.trim().parse::<f64>().is_ok());
+            && sc
+                .start
+                .split(',')
+                .all(|t| t.trim().parse::<f64>().is_ok_and(f64::is_finite));
         if !is_pose && !waypoints.contains(&sc.start) {
             return Err(format!(
                 "{}: \"{}\" is neither x,y,z,yaw nor a waypoint of {} ({})",
@@ -521,6 +570,20 @@ reach_m = 15
         assert!(e.contains("same mission"), "{e}");
         let e = refused("name = \"t\"\ntimeout_s = 0\n[[group]]\nworlds = [\"flat\"]\n");
         assert!(e.contains("timeout_s"), "{e}");
+        let e = refused("name = \"t\"\ntimeout_s = 1e20\n[[group]]\nworlds = [\"flat\"]\n");
+        assert!(e.contains("timeout_s"), "{e}");
+        let e = refused(
+            "name = \"t\"\n[[group]]\nworlds = [\"flat\"]\nvariants = [\"v\"]\n[variants.v]\nsim = { duration_s = 5 }\n",
+        );
+        assert!(e.contains("variants.v.sim.duration_s"), "{e}");
+        let e = refused(
+            "name = \"t\"\n[[group]]\nscenarios = [\"s\"]\n[scenarios.s]\nworld = \"tube\"\nstart = \"1,2,nan,0\"\nduration_s = 10\nreach_m = 5\n",
+        );
+        assert!(e.contains("scenarios.s.start"), "{e}");
+        let e = refused(
+            "name = \"t\"\n[[group]]\nscenarios = [\"s\"]\n[scenarios.s]\nworld = \"moon\"\nstart = \"start\"\nduration_s = 10\nreach_m = 5\n",
+        );
+        assert!(e.contains("scenarios.s.world") && e.contains("moon"), "{e}");
     }
 
     #[test]

@@ -16,8 +16,8 @@ pub enum Status {
     Crashed,
     /// It ran past the campaign's `timeout_s` and was killed.
     Hung,
-    /// A signal from outside ended it (the machine's OOM killer, a
-    /// cluster's preemption).
+    /// A signal from outside stopped it (a cluster's preemption, an
+    /// operator, the OOM killer): never saved, so the case runs again.
     Killed,
 }
 
@@ -34,9 +34,16 @@ pub struct Outcome {
 }
 
 impl Outcome {
+    /// The case's outcome; `None` when it has none yet. A file that
+    /// cannot be read or parsed is an error, not "not run": the case's
+    /// results are not overwritten on a passing fault of the filesystem.
     pub fn load(case_dir: &Path) -> Option<Result<Outcome, String>> {
         let path = case_dir.join(OUTCOME);
-        let text = std::fs::read_to_string(&path).ok()?;
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return None,
+            Err(e) => return Some(Err(format!("{}: {e}", path.display()))),
+        };
         Some(serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display())))
     }
 

@@ -72,7 +72,11 @@ pub fn run_case(
         return Ok(None);
     }
     let o = execute(&cd, case, p, m.timeout_s)?;
-    o.save(&cd)?;
+    // Stopped from outside (a cluster's preemption, an operator): not the
+    // mission's doing, so no outcome, and the next run starts it again.
+    if o.status != Status::Killed {
+        o.save(&cd)?;
+    }
     Ok(Some(o))
 }
 
@@ -134,16 +138,24 @@ pub fn execute(cd: &Path, case: &Case, p: &Program, timeout_s: f64) -> Result<Ou
         .stdout(log)
         .stderr(log2);
     die_with_parent(&mut cmd);
+    let limit = Duration::try_from_secs_f64(timeout_s)
+        .map_err(|e| format!("timeout_s = {timeout_s}: {e}"))?;
     let started = Instant::now();
     let mut child = cmd
         .spawn()
         .map_err(|e| format!("case {}: cannot start {}: {e}", case.id, p.exe.display()))?;
-    let (status, timed_out) = wait(&mut child, Duration::from_secs_f64(timeout_s))?;
+    let (status, timed_out) = wait(&mut child, limit)?;
     let wall_time_s = started.elapsed().as_secs_f64();
     let signal = std::os::unix::process::ExitStatusExt::signal(&status);
+    // A signal that stops a process from outside, as against one a
+    // process raises on itself by crashing (SIGSEGV, SIGABRT...).
+    let from_outside = matches!(
+        signal,
+        Some(libc::SIGKILL | libc::SIGTERM | libc::SIGINT | libc::SIGHUP)
+    );
     let status_kind = if timed_out {
         Status::Hung
-    } else if signal.is_some() {
+    } else if from_outside {
         Status::Killed
     } else if status.success() && report.exists() {
         Status::Ran
@@ -186,14 +198,16 @@ fn wait(child: &mut Child, limit: Duration) -> Result<(ExitStatus, bool), String
 /// outcome: the next run starts those cases again.
 fn die_with_parent(cmd: &mut Command) {
     use std::os::unix::process::CommandExt;
+    let runner = std::process::id() as libc::pid_t;
     // SAFETY: between fork and exec only async-signal-safe calls are made
-    // (setpgid and prctl), and nothing is allocated.
+    // (setpgid, prctl, getppid), and nothing is allocated.
     unsafe {
-        cmd.pre_exec(|| {
+        cmd.pre_exec(move || {
             libc::setpgid(0, 0);
             libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
-            // The runner may have died between fork and prctl.
-            if libc::getppid() == 1 {
+            // The runner may have died between fork and prctl (the runner
+            // may itself be PID 1, in a container: compare with its pid).
+            if libc::getppid() != runner {
                 libc::_exit(1);
             }
             Ok(())
@@ -256,6 +270,14 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
         }
         drop(tx);
         let mut first_error = None;
+        // A hidden bar prints nothing: say it on stderr then.
+        let say = |line: String| {
+            if progress {
+                bar.println(line);
+            } else {
+                eprintln!("{line}");
+            }
+        };
         for (id, r) in rx {
             match &r {
                 // Finished or held by another runner meanwhile.
@@ -267,7 +289,7 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
                 Ok(Some(o)) if o.status == Status::Ran => {}
                 Ok(Some(o)) => {
                     tally.failed += 1;
-                    bar.println(format!(
+                    say(format!(
                         "case {id} ({}): {:?} after {:.0} s{}",
                         m.cases[id].key(),
                         o.status,
@@ -279,7 +301,7 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
                 }
                 Err(e) => {
                     tally.failed += 1;
-                    bar.println(format!("case {id}: {e}"));
+                    say(format!("case {id}: {e}"));
                     first_error.get_or_insert(e);
                 }
             }

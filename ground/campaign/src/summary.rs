@@ -152,6 +152,20 @@ fn row(dir: &Path, c: &Case) -> Result<CaseRow, String> {
             return Ok(r);
         }
     }
+    match judged(&cd, &mut r) {
+        Ok(()) => Ok(r),
+        // The mission's process said it ran, but its report cannot be
+        // judged: counted as a crash, with why.
+        Err(e) => {
+            r.failure = Some(FailureCause::Crash);
+            r.log_tail.push(e);
+            Ok(r)
+        }
+    }
+}
+
+/// Fills a row from the case's report.
+fn judged(cd: &Path, r: &mut CaseRow) -> Result<(), String> {
     let v = read_json(&cd.join(REPORT))?;
     let f64_at = |path: &[&str]| {
         let mut x = &v;
@@ -188,7 +202,7 @@ fn row(dir: &Path, c: &Case) -> Result<CaseRow, String> {
         .iter()
         .map(|(k, ok)| (k.to_string(), *ok))
         .collect();
-    Ok(r)
+    Ok(())
 }
 
 /// Judges the campaign in `dir`, against `baseline` when given.

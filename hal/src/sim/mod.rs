@@ -142,7 +142,13 @@ impl SimHardware {
         let motion = match &p.physics {
             Some(pp) => {
                 let (start, tilt) = if p.start_on_ground {
-                    put_down::standing(&world.mesh, world.start, pp.wheelbase_m, pp.track_width_m)
+                    put_down::standing(
+                        &world.mesh,
+                        world.start,
+                        pp.wheelbase_m,
+                        pp.track_width_m,
+                        pp.wheel_radius_m + physics::START_GAP_M,
+                    )
                 } else {
                     (world.start, [0.0; 2])
                 };

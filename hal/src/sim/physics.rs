@@ -197,6 +197,9 @@ fn rot(q: &Quat) -> Rotation {
     Rotation::from_xyzw(q[1] as f32, q[2] as f32, q[3] as f32, q[0] as f32).normalize()
 }
 
+/// How far the wheels start above the ground, m.
+pub const START_GAP_M: f64 = 0.01;
+
 impl PhysicsRover {
     /// The rover standing on `mesh` at `start` (x, y, ground z, yaw), its
     /// legs just clear of the ground. `dt_s` is the physics step.
@@ -225,7 +228,11 @@ impl PhysicsRover {
         add_ground(&mut world, p, mesh, TriMeshFlags::empty(), &mut ground)?;
 
         let orientation = quat::from_ypr(start[3], tilt[0], tilt[1]);
-        let base = [start[0], start[1], start[2] + p.wheel_radius_m + 0.01];
+        let base = [
+            start[0],
+            start[1],
+            start[2] + p.wheel_radius_m + START_GAP_M,
+        ];
         let [l, w, h] = p.chassis_size_m;
         let chassis = world.insert_body(
             RigidBodyBuilder::dynamic()

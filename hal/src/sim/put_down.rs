@@ -42,10 +42,19 @@ pub fn ground_height(mesh: &Mesh, x: f64, y: f64, z: f64) -> Option<f64> {
 /// ground z, yaw) stands: the start with z the ground's height under its
 /// centre (the mean of the four wheels'), and the (pitch, roll) of the
 /// plane through them (rad, the Z-Y-X convention of `quat::from_ypr`). The
-/// start as given, level, where a wheel has no ground under it.
-pub fn standing(mesh: &Mesh, start: [f64; 4], wheelbase: f64, track: f64) -> ([f64; 4], [f64; 2]) {
+/// rover is lifted `lift` m (its wheels' radius and a gap) straight up from
+/// the start's z; on a slope the start's z is raised so that the lift
+/// across the slope is still `lift`. The start as given, level, where a
+/// wheel has no ground under it.
+pub fn standing(
+    mesh: &Mesh,
+    start: [f64; 4],
+    wheelbase: f64,
+    track: f64,
+    lift: f64,
+) -> ([f64; 4], [f64; 2]) {
     let [x, y, z, yaw] = start;
-    let (s, c) = yaw.sin_cos();
+    let (s, c) = (libm::sin(yaw), libm::cos(yaw));
     let at = |fwd: f64, left: f64| {
         let (px, py) = (x + c * fwd - s * left, y + s * fwd + c * left);
         ground_height(mesh, px, py, z)
@@ -58,9 +67,13 @@ pub fn standing(mesh: &Mesh, start: [f64; 4], wheelbase: f64, track: f64) -> ([f
     };
     // Front higher than rear: nose up, a negative pitch; left higher than
     // right: a positive roll.
-    let pitch = -((fl + fr - rl - rr) / 2.0).atan2(wheelbase);
-    let roll = ((fl + rl - fr - rr) / 2.0).atan2(track);
-    ([x, y, (fl + fr + rl + rr) / 4.0, yaw], [pitch, roll])
+    let pitch = -libm::atan2((fl + fr - rl - rr) / 2.0, wheelbase);
+    let roll = libm::atan2((fl + rl - fr - rr) / 2.0, track);
+    // The body's up axis leans by the tilt: straight up, the wheels would
+    // stand `lift` cos(tilt) off a steep slope, inside it past ~18 deg.
+    let cos_tilt = (libm::cos(pitch) * libm::cos(roll)).max(0.2);
+    let z = (fl + fr + rl + rr) / 4.0 + lift * (1.0 / cos_tilt - 1.0);
+    ([x, y, z, yaw], [pitch, roll])
 }
 
 #[cfg(test)]
@@ -91,10 +104,14 @@ mod tests {
         let m = ramp(1.0);
         let slope = (0.1f64).atan();
         // Facing up the slope: nose up.
-        let (p, [pitch, roll]) = standing(&m, [5.0, 0.0, 0.5, 0.0], 0.52, 0.52);
+        let (p, [pitch, roll]) = standing(&m, [5.0, 0.0, 0.5, 0.0], 0.52, 0.52, 0.2);
         assert!((pitch + slope).abs() < 1e-6, "{pitch}");
         assert!(roll.abs() < 1e-6);
-        assert!((p[2] - 0.5).abs() < 1e-6);
+        // Raised so that its wheels clear the slope by the lift across it.
+        assert!(
+            (p[2] - (0.5 + 0.2 * (1.0 / slope.cos() - 1.0))).abs() < 1e-9,
+            "{p:?}"
+        );
         // Facing across it (along -y), the slope rising on its left: rolled
         // left side up.
         let (_, [pitch, roll]) = standing(
@@ -102,6 +119,7 @@ mod tests {
             [5.0, 0.0, 0.5, -std::f64::consts::FRAC_PI_2],
             0.52,
             0.52,
+            0.2,
         );
         assert!(pitch.abs() < 1e-6, "{pitch}");
         assert!((roll - slope).abs() < 1e-6, "{roll}");
@@ -126,7 +144,7 @@ mod tests {
         assert_eq!(ground_height(&m, 1.0, 1.0, 3.0), Some(3.0));
         // Off the slab: nothing, and the start stays as given, level.
         assert_eq!(ground_height(&m, 9.0, 1.0, 0.0), None);
-        let (p, tilt) = standing(&m, [4.9, 0.0, 0.0, 0.0], 0.52, 0.52);
+        let (p, tilt) = standing(&m, [4.9, 0.0, 0.0, 0.0], 0.52, 0.52, 0.2);
         assert_eq!((p, tilt), ([4.9, 0.0, 0.0, 0.0], [0.0; 2]));
     }
 }
