@@ -295,3 +295,34 @@ fn two_runners_on_one_folder_run_each_case_once() {
     );
     assert_eq!(outcomes(&dir).len(), 7);
 }
+
+#[test]
+fn a_case_past_its_time_limit_is_killed_and_counted_a_hang() {
+    let t = tempfile::tempdir().unwrap();
+    let matrix = t.path().join("slow.toml");
+    // A minute of mission cannot run within a second of wall time.
+    std::fs::write(
+        &matrix,
+        "name = \"slow\"\ntimeout_s = 1\n[[group]]\nworlds = [\"flat\"]\nduration_s = 60\n",
+    )
+    .unwrap();
+    let dir = t.path().join("c");
+    let d = dir.to_str().unwrap();
+    ok(&speleo(&[
+        "campaign",
+        "plan",
+        matrix.to_str().unwrap(),
+        "--out",
+        d,
+    ]));
+    let started = Instant::now();
+    let o = speleo(&["campaign", "run", d]);
+    ok(&o);
+    assert!(started.elapsed() < Duration::from_secs(30));
+    assert!(text(&o.stderr).contains("Hung"), "{}", text(&o.stderr));
+    let outcome = json(&dir.join("cases/0000/outcome.json"));
+    assert_eq!(outcome["status"], "hung");
+    assert!(outcome["wall_time_s"].as_f64().unwrap() < 5.0, "{outcome}");
+    let out = ok(&speleo(&["campaign", "report", d]));
+    assert!(out.contains("| hang | 1 |"), "{out}");
+}

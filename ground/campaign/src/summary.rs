@@ -82,7 +82,7 @@ pub struct Summary {
     pub missing: usize,
     pub overall: Rate,
     pub by_world: BTreeMap<String, Rate>,
-    /// Whole-cave missions under `mission`; each scenario by name.
+    /// Whole-world missions under [`WHOLE_WORLD`]; each scenario by name.
     pub by_scenario: BTreeMap<String, Rate>,
     pub by_variant: BTreeMap<String, Rate>,
     /// Cases meeting each part of success, of those whose mission ran.
@@ -101,6 +101,10 @@ pub struct Summary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub baseline: Option<Comparison>,
 }
+
+/// The group of the missions that explore a whole world, beside the
+/// scenarios.
+pub const WHOLE_WORLD: &str = "whole world";
 
 /// The output hash a report holds.
 pub fn output_hash(report: &Path) -> Option<String> {
@@ -234,9 +238,9 @@ fn aggregate(name: &str, rows: Vec<CaseRow>) -> Summary {
         by_world
             .entry(r.world.clone())
             .or_insert_with(|| rate_of(&|x| x.world == r.world));
-        let sc = r.scenario.clone().unwrap_or_else(|| "mission".into());
+        let sc = r.scenario.clone().unwrap_or_else(|| WHOLE_WORLD.into());
         by_scenario.entry(sc.clone()).or_insert_with(|| {
-            rate_of(&|x| x.scenario.clone().unwrap_or_else(|| "mission".into()) == sc)
+            rate_of(&|x| x.scenario.clone().unwrap_or_else(|| WHOLE_WORLD.into()) == sc)
         });
         by_variant
             .entry(r.variant.clone())
