@@ -108,6 +108,21 @@ impl Canvas {
             .draw(self);
     }
 
+    /// A panel's x and y axes from its top-left corner of the plot area
+    /// (`pw` by `ph` px), each named at its end.
+    fn axes(&mut self, top: i32, pw: i32, ph: i32, x_name: &str, y_name: &str) {
+        let (left, bottom) = (MARGIN_L, top + ph);
+        self.line(
+            Point::new(left, bottom),
+            Point::new(left + pw, bottom),
+            BLACK,
+            1,
+        );
+        self.line(Point::new(left, top), Point::new(left, bottom), BLACK, 1);
+        self.text(x_name, Point::new(left + pw, bottom + 33), Alignment::Right);
+        self.text(y_name, Point::new(left - 6, top - 24), Alignment::Right);
+    }
+
     fn marker(&mut self, centre: Point, d: u32, c: Rgb888) {
         let at = centre - Point::new(d as i32 / 2, d as i32 / 2);
         let _ = Circle::new(at, d)
@@ -273,24 +288,7 @@ fn draw_map(c: &mut Canvas, s: &Summary, m: &FloorMap, e: Option<[f64; 4]>, top:
         // The cell's corner nearest the origin of the picture.
         c.rect(to_px(x - half, y + half), Size::new(dot, dot), FLOOR);
     }
-    c.line(
-        Point::new(MARGIN_L, top + ph),
-        Point::new(MARGIN_L + pw, top + ph),
-        BLACK,
-        1,
-    );
-    c.line(
-        Point::new(MARGIN_L, top),
-        Point::new(MARGIN_L, top + ph),
-        BLACK,
-        1,
-    );
-    c.text(
-        "x, m",
-        Point::new(MARGIN_L + pw, top + ph + 32),
-        Alignment::Right,
-    );
-    c.text("y, m", Point::new(MARGIN_L - 6, top - 24), Alignment::Right);
+    c.axes(top, pw, ph, "x, m", "y, m");
     // Passed first, so a failure is drawn over a success at the same place.
     let mut rows: Vec<&CaseRow> = m.cases.iter().filter_map(|&i| s.rows.get(i)).collect();
     rows.sort_by_key(|r| r.failure.is_some());
@@ -382,28 +380,7 @@ fn draw_histogram(c: &mut Canvas, s: &Summary, top: i32) {
             Alignment::Center,
         );
     }
-    c.line(
-        Point::new(MARGIN_L, top + ph),
-        Point::new(MARGIN_L + pw, top + ph),
-        BLACK,
-        1,
-    );
-    c.line(
-        Point::new(MARGIN_L, top),
-        Point::new(MARGIN_L, top + ph),
-        BLACK,
-        1,
-    );
-    c.text(
-        "coverage",
-        Point::new(MARGIN_L + pw, top + ph + 34),
-        Alignment::Right,
-    );
-    c.text(
-        "missions",
-        Point::new(MARGIN_L - 6, top - 24),
-        Alignment::Right,
-    );
+    c.axes(top, pw, ph, "coverage", "missions");
     c.text(
         "colours as in the legend at the top",
         Point::new(MARGIN_L + pw, top - 8),
