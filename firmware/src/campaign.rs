@@ -45,7 +45,9 @@ fn plan(a: CampaignPlanArgs) -> Result<ExitCode, Error> {
     let text = std::fs::read_to_string(&a.matrix)
         .map_err(|e| format!("cannot read {}: {e}", a.matrix.display()))?;
     let mut m = Matrix::parse(&text).map_err(|e| format!("{}: {e}", a.matrix.display()))?;
-    resolve_mesh_paths(&mut m, a.matrix.parent().unwrap_or(Path::new(".")));
+    let base = a.matrix.parent().unwrap_or(Path::new("."));
+    let text = add_scenario_files(&mut m, base, text)?;
+    resolve_mesh_paths(&mut m, base);
     let cases = m
         .expand(&ThisBinary)
         .map_err(|e| format!("{}: {e}", a.matrix.display()))?;
@@ -63,6 +65,21 @@ fn plan(a: CampaignPlanArgs) -> Result<ExitCode, Error> {
         a.out.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Reads the matrix's scenario files (from its folder) into it. Returns
+/// the matrix's text with their scenarios appended, so that the copy a
+/// campaign keeps says everything its cases were planned from.
+fn add_scenario_files(m: &mut Matrix, base: &Path, text: String) -> Result<String, Error> {
+    let mut copy = text;
+    for f in m.scenario_files.clone() {
+        let path = base.join(&f);
+        let t = std::fs::read_to_string(&path)
+            .map_err(|e| format!("scenario_files: cannot read {}: {e}", path.display()))?;
+        m.add_scenarios(&path.display().to_string(), &t)?;
+        copy.push_str(&format!("\n# ---- scenario file {f} ----\n{t}"));
+    }
+    Ok(copy)
 }
 
 /// A world given as a mesh file is found from the matrix's folder, and

@@ -131,8 +131,9 @@ pub struct CampaignRunArgs {
 pub struct CampaignReportArgs {
     #[arg(value_name = "DIR")]
     pub dir: PathBuf,
-    /// A campaign to compare with, case by case.
-    #[arg(long, value_name = "DIR")]
+    /// A campaign to compare with, case by case: its folder, or the
+    /// summary `report --json` wrote of it (as `campaigns/baseline/` keeps).
+    #[arg(long, value_name = "DIR|SUMMARY.json")]
     pub baseline: Option<PathBuf>,
     /// Write the summary as JSON.
     #[arg(long, value_name = "OUT.json")]

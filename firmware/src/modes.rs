@@ -502,12 +502,7 @@ fn exploration_truth(
     f.falls = Some(strikes.falls);
     f.worst_fall_m = Some(strikes.worst_fall_m);
     f.wrecked = Some(strikes.wrecked);
-    let (Some(explored), Some((origin, heading))) = (&r.explored, r.world_from_map) else {
-        // No ground of the rover's own map is reachable from where it went:
-        // it explored nothing, whatever the world's floor.
-        f.coverage_fraction = Some(0.0);
-        return Ok(());
-    };
+    // The reachable floor is the world's, whatever the rover saw of it.
     let truth_mls = crate::tools::plan_world::surface_map(world)?;
     // From the start or, where a scanned floor has a hole or a rock right
     // under it, from a ring round it.
@@ -527,6 +522,13 @@ fn exploration_truth(
         );
         return Ok(());
     };
+    f.reachable_floor_m2 = Some(ef::drivable_area_m2(&truth));
+    let (Some(explored), Some((origin, heading))) = (&r.explored, r.world_from_map) else {
+        // No ground of the rover's own map is reachable from where it went:
+        // it explored nothing of that floor.
+        f.coverage_fraction = Some(0.0);
+        return Ok(());
+    };
     let (s, c) = heading.sin_cos();
     let to_world = |p: [f64; 3]| {
         [
@@ -535,7 +537,6 @@ fn exploration_truth(
             origin[2] + p[2],
         ]
     };
-    f.reachable_floor_m2 = Some(ef::drivable_area_m2(&truth));
     f.coverage_fraction = Some(ef::coverage_fraction(&truth, explored, to_world, 0.2));
     Ok(())
 }

@@ -326,3 +326,28 @@ fn a_case_past_its_time_limit_is_killed_and_counted_a_hang() {
     let out = ok(&speleo(&["campaign", "report", d]));
     assert!(out.contains("| hang | 1 |"), "{out}");
 }
+
+/// The repository's matrices plan, and each holds every case of the one
+/// before (dev in nightly, nightly in full), so that their cases pair.
+#[test]
+fn the_shipped_matrices_plan_and_each_holds_the_cases_of_the_one_before() {
+    let t = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../campaigns");
+    let keys = |name: &str| -> std::collections::BTreeSet<String> {
+        let out = t.path().join(name);
+        let matrix = root.join(format!("{name}.toml"));
+        ok(&speleo(&[
+            "campaign",
+            "plan",
+            matrix.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]));
+        let m = speleo_campaign::manifest::Manifest::load(&out).unwrap();
+        m.cases.iter().map(|c| c.key()).collect()
+    };
+    let (dev, nightly, full) = (keys("dev"), keys("nightly"), keys("full"));
+    assert!(dev.len() >= 10, "{dev:?}");
+    assert!(dev.is_subset(&nightly), "{:?}", dev.difference(&nightly));
+    assert!(nightly.is_subset(&full), "{:?}", nightly.difference(&full));
+}

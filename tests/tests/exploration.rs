@@ -125,3 +125,34 @@ fn a_rover_wrecked_in_a_fall_ends_the_mission_and_the_report_says_so() {
     let t = r["sim_time_s"].as_f64().unwrap_or(f64::NAN);
     assert!(t < 2.0, "{t}");
 }
+
+/// A world read from a mesh file (the short tube written out as PLY) has
+/// its reachable floor and a coverage figure, as the generated world has,
+/// even when the rover has explored nothing yet.
+#[test]
+fn a_mesh_file_world_has_its_reachable_floor_and_a_coverage_figure() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let ply = dir.path().join("short-tube.ply");
+    let world = speleo_hal::world::World::build("short-tube", 1).unwrap_or_else(|e| panic!("{e}"));
+    let mut out = std::fs::File::create(&ply).unwrap_or_else(|e| panic!("{e}"));
+    world
+        .mesh
+        .write_ply(&mut out)
+        .unwrap_or_else(|e| panic!("{e}"));
+    drop(out);
+    let toml = "[exploration]\nenabled = true\n";
+    let floor = |r: &serde_json::Value| {
+        let e = &r["exploration"];
+        let area = e["reachable_floor_m2"].as_f64();
+        let coverage = e["coverage_fraction"].as_f64();
+        assert!(coverage.is_some_and(|c| (0.0..=1.0).contains(&c)), "{e}");
+        area.unwrap_or_else(|| panic!("no reachable floor: {e}"))
+    };
+    let generated = floor(&mission("short-tube", 1.0, toml, None));
+    let scanned = floor(&mission(ply.to_str().unwrap_or_default(), 1.0, toml, None));
+    assert!(generated > 50.0, "{generated}");
+    assert!(
+        (scanned - generated).abs() < 0.05 * generated,
+        "{scanned} against {generated}"
+    );
+}

@@ -24,6 +24,19 @@ pub struct Matrix {
     pub variants: BTreeMap<String, toml::Table>,
     #[serde(default)]
     pub scenarios: BTreeMap<String, Scenario>,
+    /// Files of `[scenarios.NAME]` tables shared by several matrices,
+    /// relative to the matrix's folder (`Matrix::add_scenarios`).
+    #[serde(default)]
+    pub scenario_files: Vec<String>,
+}
+
+/// A file of scenarios shared by several matrices, so that one name means
+/// one place, limit and criterion in every campaign that pairs by it.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioFile {
+    #[serde(default)]
+    pub scenarios: BTreeMap<String, Scenario>,
 }
 
 fn default_timeout_s() -> f64 {
@@ -111,7 +124,9 @@ pub struct Case {
 impl Case {
     /// What pairs a case with its twin in another campaign.
     pub fn key(&self) -> String {
-        let noise = self.noise_seed.map_or("own".to_string(), |n| n.to_string());
+        // Without a noise seed the sensors' noise follows the world seed,
+        // so the stream is named as such and pairs with a case that names it.
+        let noise = self.noise_seed.unwrap_or(self.world_seed);
         // A mesh world by its file's name: the same world planned from
         // another checkout pairs.
         let world = std::path::Path::new(&self.world)
@@ -222,6 +237,22 @@ impl Matrix {
     /// Parses a matrix, refusing unknown keys by name.
     pub fn parse(text: &str) -> Result<Matrix, String> {
         toml::from_str(text).map_err(|e| e.to_string().trim_end().to_string())
+    }
+
+    /// Adds the scenarios of `text`, the scenario file `file`; a name the
+    /// matrix already has is refused by name.
+    pub fn add_scenarios(&mut self, file: &str, text: &str) -> Result<(), String> {
+        let f: ScenarioFile =
+            toml::from_str(text).map_err(|e| format!("{file}: {}", e.to_string().trim_end()))?;
+        for (name, sc) in f.scenarios {
+            if self.scenarios.contains_key(&name) {
+                return Err(format!(
+                    "{file}: scenarios.{name}: already defined (by the matrix or an earlier scenario file)"
+                ));
+            }
+            self.scenarios.insert(name, sc);
+        }
+        Ok(())
     }
 
     /// The numbered cases, every configuration checked by `catalog`.
@@ -456,6 +487,27 @@ impl Matrix {
 #[allow(clippy::unwrap_used)] // a broken fixture fails the test where it breaks
 mod tests {
     use super::*;
+
+    #[test]
+    fn scenarios_from_a_shared_file_are_added_and_a_second_definition_refused() {
+        let mut m = Matrix::parse(
+            "name = \"t\"\nscenario_files = [\"s.toml\"]\n[[group]]\nscenarios = [\"descent\"]\n",
+        )
+        .unwrap();
+        assert_eq!(m.scenario_files, ["s.toml"]);
+        let file = "[scenarios.descent]\nworld = \"tube\"\nstart = \"m50\"\nduration_s = 10\nreach_m = 5\n";
+        m.add_scenarios("s.toml", file).unwrap();
+        assert_eq!(m.scenarios["descent"].start, "m50");
+        let e = m.add_scenarios("again.toml", file).unwrap_err();
+        assert!(
+            e.contains("again.toml") && e.contains("scenarios.descent"),
+            "{e}"
+        );
+        let e = m
+            .add_scenarios("bad.toml", "[scenarios.x]\nworld = \"tube\"\nbogus = 1\n")
+            .unwrap_err();
+        assert!(e.contains("bad.toml") && e.contains("bogus"), "{e}");
+    }
 
     /// Two worlds with a few waypoints; a configuration is refused when it
     /// holds the word `bogus`.

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::manifest::{Manifest, REPORT};
 use crate::matrix::Case;
@@ -14,7 +14,7 @@ use crate::stats::{spread, wilson, Rate, Spread};
 use crate::success::FailureCause;
 
 /// One case as the summary sees it.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CaseRow {
     pub id: usize,
     pub key: String,
@@ -219,10 +219,33 @@ pub fn summarise(dir: &Path, baseline: Option<&Path>) -> Result<Summary, String>
         .collect::<Result<_, _>>()?;
     let mut s = aggregate(&m.name, rows);
     if let Some(b) = baseline {
-        let base = summarise(b, None)?;
+        let base = if b.is_dir() {
+            let base = summarise(b, None)?;
+            SavedSummary {
+                name: base.name,
+                rows: base.rows,
+            }
+        } else {
+            let text = std::fs::read_to_string(b).map_err(|e| format!("{}: {e}", b.display()))?;
+            serde_json::from_str(&text).map_err(|e| {
+                format!(
+                    "{}: neither a campaign folder nor a summary written by `campaign report --json` ({e})",
+                    b.display()
+                )
+            })?
+        };
         s.baseline = Some(compare(&base, &s));
     }
     Ok(s)
+}
+
+/// What a baseline needs of a campaign: its name and its cases, from the
+/// campaign's folder or from the summary `report --json` wrote (so that a
+/// baseline can be kept in a repository without its cases' folders).
+#[derive(Deserialize)]
+struct SavedSummary {
+    name: String,
+    rows: Vec<CaseRow>,
 }
 
 fn aggregate(name: &str, rows: Vec<CaseRow>) -> Summary {
@@ -295,15 +318,14 @@ fn aggregate(name: &str, rows: Vec<CaseRow>) -> Summary {
 
 /// Pairs the cases of two campaigns by what they are (world, seeds,
 /// variant, scenario), not by number.
-fn compare(base: &Summary, now: &Summary) -> Comparison {
-    let done = |s: &Summary| -> BTreeMap<String, CaseRow> {
-        s.rows
-            .iter()
+fn compare(base: &SavedSummary, now: &Summary) -> Comparison {
+    let done = |rows: &[CaseRow]| -> BTreeMap<String, CaseRow> {
+        rows.iter()
             .filter(|r| r.status.is_some())
             .map(|r| (r.key.clone(), r.clone()))
             .collect()
     };
-    let (b, n) = (done(base), done(now));
+    let (b, n) = (done(&base.rows), done(&now.rows));
     let mut fixed = Vec::new();
     let mut broken = Vec::new();
     let (mut paired, mut b_pass, mut n_pass, mut hash_changed) = (0, 0, 0, 0);
@@ -677,5 +699,15 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("- broken: case 2"), "{md}");
+        // The same baseline from the summary `report --json` keeps.
+        let saved = t.path().join("base.json");
+        let json = serde_json::to_string(&summarise(&base, None).unwrap()).unwrap();
+        std::fs::write(&saved, json).unwrap();
+        let c2 = summarise(&now, Some(&saved)).unwrap().baseline.unwrap();
+        let figures = |c: &Comparison| (c.paired, c.fixed.len(), c.broken.len(), c.hash_changed);
+        assert_eq!(figures(&c2), figures(c));
+        std::fs::write(&saved, "{}").unwrap();
+        let e = summarise(&now, Some(&saved)).unwrap_err();
+        assert!(e.contains("base.json") && e.contains("neither"), "{e}");
     }
 }
