@@ -119,7 +119,7 @@ pub struct MissionResult {
     pub safe_mode_cause: Option<String>,
     pub suppressed_events: u64,
     pub recorder: TapCounters,
-    pub counters: crate::bus::Counters,
+    pub counters: speleo_messages::Counters,
     pub slam: Option<SlamFigures>,
     /// The maps at the end of the run, when kept.
     pub maps: Option<MapsResult>,
@@ -567,7 +567,8 @@ pub fn run<C: FrameClock>(
         // mission; so does a simulated rover wrecked in a fall.
         let finished = matches!(
             bus.exploration.phase,
-            crate::bus::ExplorationPhase::Finished | crate::bus::ExplorationPhase::Stranded
+            speleo_messages::ExplorationPhase::Finished
+                | speleo_messages::ExplorationPhase::Stranded
         ) || hw.borrow().world_over();
         if total.is_some_and(|n| exec.frames_run() >= n)
             || m.stop.load(Ordering::Relaxed)

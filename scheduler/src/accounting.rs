@@ -191,6 +191,19 @@ pub fn total_allocations() -> u64 {
     COUNTS.with(|n| n.iter().map(Cell::get).sum())
 }
 
+/// Run `f` counting this thread's allocations, and return how many it made:
+/// how a test proves that a piece of code allocates nothing (the
+/// accounting allocator must be the binary's global allocator).
+pub fn allocations_in<R>(f: impl FnOnce() -> R) -> (R, u64) {
+    let previous = CURRENT.with(Cell::get);
+    set_slot(0);
+    let before = allocations(0);
+    let r = f();
+    let made = allocations(0) - before;
+    set_slot(previous);
+    (r, made)
+}
+
 /// Zero this thread's counters.
 pub fn reset() {
     COUNTS.with(|n| n.iter().for_each(|c| c.set(0)));

@@ -458,3 +458,16 @@ fn the_real_platform_measures_cpu_time() {
         );
     }
 }
+
+#[test]
+fn allocations_in_counts_what_its_closure_allocates_and_puts_the_slot_back() {
+    accounting::set_slot(4);
+    let (v, made) = accounting::allocations_in(|| std::hint::black_box(vec![1u8; 100]));
+    assert_eq!((v.len(), made), (100, 1));
+    let ((), none) = accounting::allocations_in(|| ());
+    assert_eq!(none, 0);
+    let before = accounting::allocations(4);
+    std::hint::black_box(vec![2u8; 10]);
+    assert_eq!(accounting::allocations(4), before + 1, "slot 4 again");
+    accounting::untrack();
+}

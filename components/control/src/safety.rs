@@ -69,10 +69,6 @@ impl StopReason {
             StopReason::NoProgress => "no_progress",
         }
     }
-
-    pub fn from_code(c: u8) -> Option<StopReason> {
-        StopReason::ALL.into_iter().find(|r| *r as u8 == c)
-    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

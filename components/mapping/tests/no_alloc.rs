@@ -1,57 +1,17 @@
 //! Bounded memory: once built, inserting scans into the MLS map, evicting,
 //! clearing, integrating into the TSDF and meshing again with grown buffers
-//! allocate nothing (a counting global allocator, per thread).
+//! allocate nothing (the scheduler's accounting allocator, per thread).
 
 mod common;
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 
 use nalgebra::Isometry3;
 use speleo_mapping::marching_cubes::MeshBuffers;
 use speleo_mapping::mls::{MlsMap, MlsParams};
 use speleo_mapping::tsdf::{TsdfParams, TsdfVolume};
-
-struct Counting;
-
-thread_local! {
-    static COUNTING: Cell<bool> = const { Cell::new(false) };
-    static ALLOCS: Cell<u64> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; the counters are const-init
-// thread locals, which never allocate.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        if COUNTING.with(|c| c.get()) {
-            ALLOCS.with(|a| a.set(a.get() + 1));
-        }
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(l) }
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(p, l) }
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
-        if COUNTING.with(|c| c.get()) {
-            ALLOCS.with(|a| a.set(a.get() + 1));
-        }
-        // SAFETY: same contract as the caller's.
-        unsafe { System.realloc(p, l, n) }
-    }
-}
+use speleo_scheduler::accounting::{allocations_in, AccountingAllocator};
 
 #[global_allocator]
-static A: Counting = Counting;
-
-fn allocations_in<R>(f: impl FnOnce() -> R) -> (R, u64) {
-    ALLOCS.with(|a| a.set(0));
-    COUNTING.with(|c| c.set(true));
-    let r = f();
-    COUNTING.with(|c| c.set(false));
-    (r, ALLOCS.with(|a| a.get()))
-}
+static A: AccountingAllocator = AccountingAllocator;
 
 #[test]
 fn mls_insertion_eviction_and_clearing_allocate_nothing() {

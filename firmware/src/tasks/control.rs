@@ -18,7 +18,8 @@ use speleo_control::{
 use speleo_mapping::mls::{drop_at, ground_near, MlsMap};
 use speleo_scheduler::{Context, Task};
 
-use crate::bus::{Bus, WheelCommand};
+use crate::bus::Bus;
+use speleo_messages::WheelCommand;
 
 /// What the task did on plans.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -40,7 +41,7 @@ pub struct ControlTask {
     monitor: SafetyMonitor,
     /// The plan being followed (0: none yet).
     following: u64,
-    stop: u8,
+    stop: Option<StopReason>,
     /// Where the stop's probe saw a drop (see [`WheelCommand::rim`]).
     rim: Option<[f64; 2]>,
     last_run_ns: Option<u64>,
@@ -63,7 +64,7 @@ impl ControlTask {
             limiter,
             monitor,
             following: 0,
-            stop: 0,
+            stop: None,
             rim: None,
             last_run_ns: None,
             degraded: false,
@@ -87,7 +88,7 @@ impl ControlTask {
             return;
         }
         self.following = plan.query;
-        self.stop = 0;
+        self.stop = None;
         self.rim = None;
         self.monitor.reset();
         self.counters.plans_followed += 1;
@@ -242,7 +243,7 @@ impl Task<Bus> for ControlTask {
                         w = t.w,
                         "safety stop"
                     );
-                    self.stop = r as u8;
+                    self.stop = Some(r);
                     self.rim = self
                         .monitor
                         .trigger()
@@ -297,11 +298,11 @@ impl ControlTask {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bus::{PlanMsg, SlamPose};
     use crate::surface_maps::SurfaceMaps;
     use crate::tasks::test_context as cx;
     use speleo_control::{AccelLimits, Path, SafetyParams};
     use speleo_mapping::mls::MlsParams;
+    use speleo_messages::{PlanMsg, SlamPose};
 
     /// Ground seen for x in [0, 5), y in [0, 4); nothing beyond (a drop
     /// the LiDAR could not see into).
@@ -416,7 +417,7 @@ mod tests {
         // To (9, 2), past the ledge.
         let out = (0..=80).map(|k| [1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
         let Ended { x, command: c, .. } = drive(&mut bus, &mut t, out);
-        assert_eq!(StopReason::from_code(c.stop), Some(StopReason::LeavingMap));
+        assert_eq!(c.stop, Some(StopReason::LeavingMap));
         assert_eq!((c.speed, c.yaw_rate), (0.0, 0.0));
         assert_eq!(c.plan, 1);
         // The wheels' front (half the body ahead of base_link) is still
@@ -440,7 +441,7 @@ mod tests {
         let mut t = task();
         let out = (0..=80).map(|k| [1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
         let Ended { x, command: c, .. } = drive(&mut bus, &mut t, out);
-        assert_eq!(StopReason::from_code(c.stop), Some(StopReason::LeavingMap));
+        assert_eq!(c.stop, Some(StopReason::LeavingMap));
         assert!(x + 0.5 < 5.0, "stopped at x = {x}");
         let rim = c.rim.unwrap_or_else(|| panic!("no rim: {c:?}"));
         assert!(
@@ -469,7 +470,7 @@ mod tests {
         let out = (0..=20).map(|k| [1.0 + 0.1 * k as f32, 2.0, 0.0, 0.0]);
         let back = (1..=5).map(|k| [3.0 - 0.1 * k as f32, 2.0, 0.0, 0.0]);
         let e = drive(&mut bus, &mut t, out.chain(back));
-        assert_eq!(e.command.stop, 0);
+        assert_eq!(e.command.stop, None);
         assert!(e.reversed, "the last leg is driven backward");
         assert!((e.x - 2.5).abs() < 0.3, "ended at {}", e.x);
         assert!(e.yaw.abs() < 0.1, "it did not turn round: {}", e.yaw);

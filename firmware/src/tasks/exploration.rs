@@ -19,7 +19,8 @@ use speleo_hal::cia402;
 use speleo_hal::sim::quat;
 use speleo_slam::lie::Pose;
 
-use crate::bus::{Bus, ExplorationPhase, ExplorationStatus, PlanMsg, PLAN_POSES};
+use crate::bus::Bus;
+use speleo_messages::{ExplorationPhase, ExplorationStatus, PlanMsg, PLAN_POSES};
 
 /// What the exploration did, for the report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -264,7 +265,7 @@ pub struct Exploration {
     /// Where the last retrace began, and whether it was driven backward.
     retraced_from: Option<([f64; 3], bool)>,
     /// How the last plan ended ([`StopReason`] code, 0: at its end).
-    last_stop: u8,
+    last_stop: Option<StopReason>,
     /// Retraces refused in a row where the last one began.
     refused_here: u32,
     /// Plans in a row stopped for tilt where the one before was (see
@@ -345,7 +346,7 @@ impl Exploration {
             second_look_taken: false,
             escape_attempts: 0,
             retraced_from: None,
-            last_stop: 0,
+            last_stop: None,
             refused_here: 0,
             tilt_stalls: 0,
             last_tilt_stop: [f64::INFINITY; 3],
@@ -358,11 +359,11 @@ impl Exploration {
     /// garage a rover hanging off a ramp's side at 42 degrees retraced,
     /// backward and forward, for the rest of the mission). After a few
     /// such stops in one place the rover is stranded and the mission ends.
-    fn count_tilt_stall(&mut self, stop: u8, bus: &Bus) {
+    fn count_tilt_stall(&mut self, stop: Option<StopReason>, bus: &Bus) {
         let Some(p) = bus.slam.get().map(|p| p.value.position) else {
             return;
         };
-        if stop != StopReason::Tilt as u8 {
+        if stop != Some(StopReason::Tilt) {
             self.tilt_stalls = 0;
             return;
         }
@@ -385,7 +386,7 @@ impl Exploration {
     /// is kept (see [`Exploration::rims`]), once within half
     /// [`RIM_RADIUS_M`].
     ///
-    /// [`WheelCommand::rim`]: crate::bus::WheelCommand::rim
+    /// [`WheelCommand::rim`]: speleo_messages::WheelCommand::rim
     fn note_rim(&mut self, bus: &Bus) {
         let rim = bus.command.get().and_then(|c| c.value.rim);
         let (Some([x, y]), Some(p)) = (rim, bus.slam.get().map(|p| p.value.position)) else {
@@ -409,14 +410,14 @@ impl Exploration {
     /// An exploring plan ended with `stop` off the path, without progress
     /// or stuck, the rover pitched [`SLIDE_PITCH_DEG`] or more: the place
     /// is kept as a slide (see [`Exploration::slides`]).
-    fn note_slide(&mut self, stop: u8, bus: &Bus) {
+    fn note_slide(&mut self, stop: Option<StopReason>, bus: &Bus) {
         let slid = [
             StopReason::OffPath,
             StopReason::NoProgress,
             StopReason::Stuck,
         ]
         .iter()
-        .any(|r| *r as u8 == stop);
+        .any(|r| Some(*r) == stop);
         if !slid || self.explorer.mode() != Mode::Exploring {
             return;
         }
@@ -575,7 +576,7 @@ impl Exploration {
         };
         let backward = match again_here {
             Some((_, b)) => !b,
-            None => self.last_stop == StopReason::LeavingMap as u8 && (yaw - track_way).cos() < 0.0,
+            None => self.last_stop == Some(StopReason::LeavingMap) && (yaw - track_way).cos() < 0.0,
         };
         if again_here.is_none() {
             self.refused_here = 0;
@@ -609,7 +610,7 @@ impl Exploration {
             yaw_deg = yaw.to_degrees(),
             first_leg_deg = first_leg.to_degrees(),
             track_way_deg = track_way.to_degrees(),
-            last_stop = self.last_stop,
+            last_stop = self.last_stop.map_or("none", StopReason::name),
             backward,
             "retracing"
         );
@@ -1002,16 +1003,16 @@ impl Exploration {
             // nothing leave the last plan's end standing): a goal the rover
             // was stopped on the way to is not tried again.
             self.ended = self.executing;
-            let stop = bus.command.get().map_or(0, |c| c.value.stop);
+            let stop = bus.command.get().and_then(|c| c.value.stop);
             self.last_stop = stop;
             if let (true, Mode::Exploring, Some(g)) =
-                (stop != 0, self.explorer.mode(), bus.exploration.goal)
+                (stop.is_some(), self.explorer.mode(), bus.exploration.goal)
             {
                 self.explorer.reject([g[0], g[1]]);
             }
             // Stuck (on a rock the map took for ground, most often): the
             // place becomes an obstacle, and the rover backs out first.
-            if stop == StopReason::Stuck as u8 {
+            if stop == Some(StopReason::Stuck) {
                 if let Some(p) = bus.slam.get().map(|p| p.value.position) {
                     let known = self
                         .no_go
@@ -1033,7 +1034,7 @@ impl Exploration {
                     self.back_out = true;
                     self.stranded = !self.backing_out;
                 }
-            } else if stop == 0 {
+            } else if stop.is_none() {
                 self.escape_attempts = 0;
             }
             self.note_slide(stop, bus);
@@ -1052,8 +1053,8 @@ impl Exploration {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bus::SlamPose;
     use speleo_exploration::ReturnReason;
+    use speleo_messages::SlamPose;
 
     fn at(bus: &mut Bus, p: [f64; 3]) {
         bus.slam.publish(
@@ -1156,7 +1157,7 @@ mod tests {
 
     #[test]
     fn a_rover_stopped_at_the_maps_edge_retraces_without_turning_round() {
-        use crate::bus::WheelCommand;
+        use speleo_messages::WheelCommand;
         let heading_after_at = |stop: StopReason, yaw: f64, at: [f64; 3]| {
             let mut e = exploration();
             let mut bus = Bus::new();
@@ -1177,7 +1178,7 @@ mod tests {
                 0,
                 WheelCommand {
                     done: true,
-                    stop: stop as u8,
+                    stop: Some(stop),
                     ..Default::default()
                 },
             );
@@ -1228,7 +1229,7 @@ mod tests {
     fn tilt_stops_in_one_place_strand_the_rover_and_moving_on_resets_the_count() {
         let mut e = exploration();
         let mut bus = Bus::new();
-        let tilt = StopReason::Tilt as u8;
+        let tilt = Some(StopReason::Tilt);
         // Tilt stops that each got somewhere, or other stops between
         // them, never strand it.
         for k in 0..2 * TILT_STALLS_TO_STRAND {
@@ -1239,7 +1240,7 @@ mod tests {
         for _ in 0..TILT_STALLS_TO_STRAND - 1 {
             e.count_tilt_stall(tilt, &bus);
         }
-        e.count_tilt_stall(0, &bus);
+        e.count_tilt_stall(None, &bus);
         e.count_tilt_stall(tilt, &bus);
         assert_eq!(e.explorer.mode(), Mode::Exploring);
         // Stop after stop where it stood: stranded, the mission over.
@@ -1267,13 +1268,13 @@ mod tests {
                 },
             );
         };
-        let off_path = StopReason::OffPath as u8;
+        let off_path = Some(StopReason::OffPath);
         // Off the path on a garage ramp (14 deg), or tilted past the
         // limit: no slide.
         pitched(&mut bus, [1.0, 0.0, 0.5], -14.0);
         e.note_slide(off_path, &bus);
         pitched(&mut bus, [1.0, 0.0, 0.5], -21.0);
-        e.note_slide(StopReason::Tilt as u8, &bus);
+        e.note_slide(Some(StopReason::Tilt), &bus);
         assert!(e.slides.is_empty());
         // Slid off the path nose up at 21 deg: kept, on the ground.
         pitched(&mut bus, [-6.0, -1.0, 1.65], -21.0);
@@ -1283,7 +1284,7 @@ mod tests {
         assert!((s[2] - 1.5).abs() < 1e-9, "{s:?}");
         // Stalled again beside it: the same place.
         pitched(&mut bus, [-6.2, -0.9, 1.7], 20.0);
-        e.note_slide(StopReason::NoProgress as u8, &bus);
+        e.note_slide(Some(StopReason::NoProgress), &bus);
         assert_eq!((e.slides.len(), e.counters.slides), (1, 1));
         // Going home, a slide bars nothing (home may be up a slope).
         for _ in 0..3 {
@@ -1291,13 +1292,13 @@ mod tests {
         }
         assert!(matches!(e.mode(), Mode::Returning(_)));
         pitched(&mut bus, [30.0, 0.0, -3.0], -22.0);
-        e.note_slide(StopReason::Stuck as u8, &bus);
+        e.note_slide(Some(StopReason::Stuck), &bus);
         assert_eq!(e.slides.len(), 1);
     }
 
     #[test]
     fn a_stop_at_a_rim_is_kept_once_on_the_rovers_ground() {
-        use crate::bus::WheelCommand;
+        use speleo_messages::WheelCommand;
         let mut e = exploration();
         e.set_base_height(0.2);
         let mut bus = Bus::new();
@@ -1307,7 +1308,7 @@ mod tests {
                 0,
                 WheelCommand {
                     done: true,
-                    stop: StopReason::LeavingMap as u8,
+                    stop: Some(StopReason::LeavingMap),
                     rim,
                     ..Default::default()
                 },

@@ -8,7 +8,8 @@ use speleo_hal::cia402::DriveState;
 use speleo_health::{Freshness, Source, SourceId};
 use speleo_scheduler::{Context, Mode, Task};
 
-use crate::bus::{Bus, HealthReport};
+use crate::bus::Bus;
+use speleo_messages::HealthReport;
 
 pub const SOURCE_NAMES: [&str; 6] = ["imu", "drive1", "drive2", "drive3", "drive4", "lidar"];
 
@@ -255,9 +256,9 @@ impl Task<Bus> for HealthTask {
 mod tests {
     use super::finding::*;
     use super::*;
-    use crate::bus::ImuSample;
     use crate::tasks::test_context;
     use speleo_hal::canopen::supervisor::DrivesState;
+    use speleo_messages::ImuSample;
 
     fn params() -> HealthParams {
         HealthParams {

@@ -6,7 +6,8 @@ use speleo_hal::xsens_config::{ConfigSession, OutputConfig};
 use speleo_hal::Device;
 use speleo_scheduler::{Context, Task};
 
-use crate::bus::{Bus, ImuSample};
+use crate::bus::Bus;
+use speleo_messages::ImuSample;
 
 pub struct ImuDriver {
     decoder: XbusDecoder,

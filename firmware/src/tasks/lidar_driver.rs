@@ -6,7 +6,8 @@ use speleo_hal::hdl32e::{DataPacket, FrameAssembler, PacketError, Point};
 use speleo_hal::Device;
 use speleo_scheduler::{Context, Task};
 
-use crate::bus::{Bus, Cloud};
+use crate::bus::Bus;
+use speleo_messages::Cloud;
 
 pub struct LidarDriver {
     assembler: FrameAssembler,

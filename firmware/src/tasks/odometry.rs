@@ -6,7 +6,8 @@
 use speleo_odometry::{ImuInput, Odometry, OdometryParams};
 use speleo_scheduler::{Context, Task};
 
-use crate::bus::{Bus, OdomPose};
+use crate::bus::Bus;
+use speleo_messages::OdomPose;
 
 /// Step the wheels with whatever positions there are when some drive has
 /// not sent a new one for this long (its wheel is then left out as stuck).
@@ -161,7 +162,7 @@ mod tests {
         // Rear right goes silent: after 25 ms the others carry on without
         // it (the gyro, saying straight, tells which side is right).
         for f in 3..10u64 {
-            let level = crate::bus::ImuSample {
+            let level = speleo_messages::ImuSample {
                 orientation: [1.0, 0.0, 0.0, 0.0],
                 ..Default::default()
             };

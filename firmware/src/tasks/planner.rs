@@ -29,12 +29,13 @@ use speleo_traversability::{TravMap, Window};
 use speleo_exploration::{Mode, Pass, ReturnReason};
 use speleo_simulator::{Outcome, Stance};
 
-use crate::bus::{Bus, PlanMsg};
+use crate::bus::Bus;
 use crate::config::PlannerConfig;
 use crate::tasks::control::yaw_of;
 use crate::tasks::exploration::{
     Exploration, NO_GO_RADIUS_M, RIM_RADIUS_M, SLIDE_RADIUS_M, SLIDE_RISE_M,
 };
+use speleo_messages::PlanMsg;
 
 /// Results kept for the report's medians (a query every few seconds: days
 /// of mission).
@@ -903,7 +904,7 @@ impl PlannerTask {
     /// The retrace just shown is driven in the internal simulator first,
     /// as every plan is: a blind one turned the garage's rover round at
     /// the roof's ramp opening until it hung tilted over the edge.
-    fn validate_retrace(&mut self, bus: &Bus, now: u64, pose: &crate::bus::SlamPose) -> bool {
+    fn validate_retrace(&mut self, bus: &Bus, now: u64, pose: &speleo_messages::SlamPose) -> bool {
         self.query = Query {
             began_ns: now,
             rover: pose.position,
@@ -1397,9 +1398,9 @@ fn trace_cells_near(mls: &MlsMap, rover: [f64; 3], radius_m: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bus::SlamPose;
     use crate::surface_maps::SurfaceMaps;
     use speleo_mapping::mls::MlsParams;
+    use speleo_messages::SlamPose;
 
     use crate::tasks::exploration::ExplorationCounters;
     use crate::tasks::sim_worker::SimWorker;
@@ -1791,8 +1792,8 @@ mod tests {
 
     #[test]
     fn a_back_out_over_a_drop_is_refused_by_the_simulation_and_the_other_way_driven() {
-        use crate::bus::WheelCommand;
         use speleo_control::StopReason;
+        use speleo_messages::WheelCommand;
         // On a shelf whose edge is 0.4 m behind the rover, a 0.8 m drop
         // under it; the rover faces away from it and is stuck.
         let ground = |x: f64, _| if x < 9.3 { -0.8 } else { 0.0 };
@@ -1806,7 +1807,7 @@ mod tests {
             100_000_000,
             WheelCommand {
                 done: true,
-                stop: StopReason::Stuck as u8,
+                stop: Some(StopReason::Stuck),
                 ..Default::default()
             },
         );
@@ -2111,15 +2112,15 @@ mod tests {
     #[test]
     fn a_stuck_rover_backs_out_a_metre_straight_then_plans_then_backs_out_forward_and_remembers_the_place(
     ) {
-        use crate::bus::WheelCommand;
         use speleo_control::StopReason;
+        use speleo_messages::WheelCommand;
         let (mut ex, mut bus) = driven_from_x1_to_x5();
         // Then stuck.
         bus.command.publish(
             4_100_000_000,
             WheelCommand {
                 done: true,
-                stop: StopReason::Stuck as u8,
+                stop: Some(StopReason::Stuck),
                 ..Default::default()
             },
         );
@@ -2147,7 +2148,7 @@ mod tests {
             WheelCommand {
                 done: true,
                 plan: 9,
-                stop: StopReason::Stuck as u8,
+                stop: Some(StopReason::Stuck),
                 ..Default::default()
             },
         );
@@ -2172,8 +2173,8 @@ mod tests {
 
     #[test]
     fn a_rover_stuck_after_a_back_out_each_way_retraces_its_track_steered_then_backs_out_again() {
-        use crate::bus::WheelCommand;
         use speleo_control::StopReason;
+        use speleo_messages::WheelCommand;
         let (mut ex, mut bus) = driven_from_x1_to_x5();
         let straight = |p: &PlanMsg| p.poses.iter().all(|q| q[3].abs() < 1e-6);
         let mut t = 4_100_000_000;
@@ -2185,7 +2186,7 @@ mod tests {
                 WheelCommand {
                     done: true,
                     plan: query - 1,
-                    stop: StopReason::Stuck as u8,
+                    stop: Some(StopReason::Stuck),
                     ..Default::default()
                 },
             );
@@ -2269,8 +2270,8 @@ mod tests {
 
     #[test]
     fn a_rover_that_made_no_progress_drops_its_goal_without_backing_out() {
-        use crate::bus::WheelCommand;
         use speleo_control::StopReason;
+        use speleo_messages::WheelCommand;
         let e = crate::config::ExplorationConfig::default();
         let mut ex = Exploration::new(e.explorer_params(), e.candidate_params(), None, 0.0);
         let mut bus = bus_on_a_floor();
@@ -2290,7 +2291,7 @@ mod tests {
             100_000_000,
             WheelCommand {
                 done: true,
-                stop: StopReason::NoProgress as u8,
+                stop: Some(StopReason::NoProgress),
                 ..Default::default()
             },
         );

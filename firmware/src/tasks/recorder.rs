@@ -8,13 +8,14 @@ use serde::Serialize;
 use speleo_hal::Device;
 use speleo_scheduler::{Context, Mode, Task};
 
-use crate::bus::{Bus, Counters};
+use crate::bus::Bus;
 use crate::record::encode::{
     CanFrameJson, Color, FrameTransform, ImuSampleJson, Pose, PoseInFrame, Quaternion, SeqOf, Time,
     Vector3, WheelCommandJson, WheelJson,
 };
 use crate::record::{RecorderTap, Topic};
 use crate::tasks::health::{finding, SOURCE_NAMES};
+use speleo_messages::Counters;
 
 /// The path is re-sent this often (frames) so a viewer that seeks finds it.
 pub const PLAN_EVERY_FRAMES: u64 = 100;

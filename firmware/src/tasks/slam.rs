@@ -13,8 +13,9 @@ use speleo_slam::deskew::deskew;
 use speleo_slam::graph_slam::{GraphSlam, SlamParams};
 use speleo_slam::lie::Pose;
 
-use crate::bus::{Bus, SlamPose};
+use crate::bus::Bus;
 use crate::config::FalseLoopClosure;
+use speleo_messages::SlamPose;
 
 /// Points within this span of firing times share one deskewing pose.
 const DESKEW_SLICE_S: f64 = 100e-6;
