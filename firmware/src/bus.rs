@@ -11,7 +11,6 @@ use speleo_messages::{
 };
 use speleo_odometry::{OdometryCounters, PoseHistory};
 use speleo_scheduler::mailbox::{Fifo, Latest, Ring};
-use speleo_scheduler::Mode;
 
 /// Odometry poses kept for deskewing: 2.56 s at 100 Hz.
 pub const ODOM_HISTORY_LEN: usize = 256;
@@ -58,8 +57,6 @@ pub struct Bus {
     /// the safe schedule.
     pub recovery_ready: bool,
     pub timing: Timing,
-    /// The executive's mode, mirrored for the recorder and health.
-    pub mode: Mode,
 }
 
 impl Bus {
@@ -91,7 +88,6 @@ impl Bus {
             safe_mode_request: false,
             recovery_ready: false,
             timing: Timing::default(),
-            mode: Mode::Nominal,
         })
     }
 }

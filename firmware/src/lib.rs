@@ -25,3 +25,4 @@ pub mod tasks;
 pub mod tools;
 pub mod validation_dump;
 pub mod wcet;
+pub mod wiring;

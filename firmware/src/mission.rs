@@ -606,7 +606,6 @@ pub fn run<C: FrameClock>(
             exec.leave_safe_mode();
             bus.recovery_ready = false;
         }
-        bus.mode = exec.mode();
         bus.timing.overruns += f.overruns as u64;
         bus.timing.slipped_frames += f.slipped;
         bus.timing.enforcing = m.enforcement == Enforcement::Enforce;
