@@ -153,3 +153,62 @@ fn each_task_touches_the_fields_its_row_names_and_writes_only_those_it_declares(
         }
     }
 }
+
+/// How docs/architecture.md writes a task's rate.
+fn rate_text(spec: &speleo_scheduler::TaskSpec, frame_hz: u32) -> String {
+    let d = spec.rate.divisor;
+    let mut t = if d == 1 {
+        format!("{frame_hz} Hz")
+    } else {
+        let o = spec.rate.offset;
+        format!("{} Hz (frames {o}, {}, ...)", frame_hz / d, o + d)
+    };
+    if spec.anytime.is_some() {
+        t.push_str(", anytime");
+    }
+    t
+}
+
+#[test]
+fn the_architecture_pages_task_table_is_the_schedule_and_the_wiring() {
+    let cfg = speleo_firmware::config::Config::default();
+    let specs = speleo_firmware::schedule_table::specs(&cfg).expect("default table");
+    let frame_hz = 1_000_000 / cfg.executive.minor_frame_us;
+    let page = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../docs/architecture.md"
+    ))
+    .expect("docs/architecture.md");
+    let rows: Vec<Vec<String>> = page
+        .split("| task | rate | budget | policy | safe | writes | reads | does |")
+        .nth(1)
+        .expect("the page has the task table")
+        .lines()
+        .skip(2)
+        .take_while(|l| l.starts_with('|'))
+        .map(|l| l.split('|').map(|c| c.trim().to_string()).collect())
+        .collect();
+    let names: Vec<&str> = rows.iter().map(|r| r[1].as_str()).collect();
+    assert_eq!(names, TASKS, "the page's tasks, in order");
+    for (row, spec) in rows.iter().zip(&specs) {
+        let w = WIRING
+            .iter()
+            .find(|w| w.task == spec.name.as_str())
+            .expect("a wiring row");
+        let expected = [
+            spec.name.to_string(),
+            rate_text(spec, frame_hz),
+            format!("{} us", spec.budget_us),
+            spec.policy.as_str().to_string(),
+            if spec.in_safe_mode { "yes" } else { "no" }.to_string(),
+            w.writes.join(", "),
+            w.reads.join(", "),
+        ];
+        assert_eq!(
+            row[1..8],
+            expected,
+            "docs/architecture.md, task {}",
+            spec.name
+        );
+    }
+}
