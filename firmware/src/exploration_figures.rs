@@ -11,7 +11,8 @@ use speleo_mapping::mls::MlsMap;
 use speleo_traversability::{TravMap, TravParams};
 
 use crate::tasks::control::ControlCounters;
-use crate::tasks::exploration::Exploration;
+use crate::tasks::sim_worker::SimWorker;
+use speleo_navigator::Exploration;
 
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ExplorationFigures {
@@ -234,12 +235,15 @@ pub struct InternalSimFigures {
     pub speed_x_real_time: Option<f64>,
 }
 
-pub fn internal_sim(e: &Exploration, minor_frame_us: u32) -> Option<InternalSimFigures> {
+pub fn internal_sim(
+    e: &Exploration,
+    w: Option<&SimWorker>,
+    minor_frame_us: u32,
+) -> Option<InternalSimFigures> {
     if !e.validates() {
         return None;
     }
     let c = &e.counters;
-    let w = e.worker.as_ref();
     let names = [
         "timeout",
         "tipped_over",

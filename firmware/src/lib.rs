@@ -19,6 +19,7 @@ pub mod record;
 pub mod report;
 pub mod schedule_table;
 pub mod sim_clouds;
+pub mod sim_host;
 pub mod slam_figures;
 pub mod surface_maps;
 pub mod tasks;

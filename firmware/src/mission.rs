@@ -239,15 +239,21 @@ fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, Mission
         };
         (idle, &[][..])
     };
-    planner::PlannerTask::new(
-        &pc,
+    let nav = speleo_navigator::Navigator::new(
+        &pc.navigator_params(),
         &prims,
         res,
         route,
         cfg.control.looped,
         base_height_m(cfg),
     )
-    .map_err(MissionError::Planner)
+    .map_err(MissionError::Planner)?;
+    Ok(planner::PlannerTask::new(
+        nav,
+        pc.step_units.as_array(),
+        crate::sim_host::SimHost::default(),
+        mount_pose(cfg),
+    ))
 }
 
 /// Height of base_link over the ground: it is at the wheel hubs, which the
@@ -439,7 +445,7 @@ pub fn run<C: FrameClock>(
     let mut worker_sync = None;
     if planner_on && cfg.exploration.enabled {
         let e = &cfg.exploration;
-        let mut ex = crate::tasks::exploration::Exploration::new(
+        let mut ex = speleo_navigator::Exploration::new(
             e.explorer_params(),
             e.candidate_params(),
             e.target,
@@ -448,7 +454,7 @@ pub fn run<C: FrameClock>(
         if cfg.simulator.enabled {
             let sim = speleo_simulator::InternalSim::new(simulator_params(cfg))
                 .map_err(MissionError::Planner)?;
-            ex = ex.with_simulator(sim, mount_pose(cfg));
+            ex = ex.with_simulator(sim);
             if cfg.simulator.worker_units > 0 {
                 let w = SimWorker::spawn(
                     cfg.simulator.worker_units,
@@ -457,15 +463,15 @@ pub fn run<C: FrameClock>(
                 )
                 .map_err(|e| MissionError::Planner(format!("the simulator's worker: {e}")))?;
                 worker_sync = Some(w.sync());
-                ex = ex.with_worker(w);
+                t_plan.host.worker = Some(w);
             }
             if let Some(dir) = &cfg.simulator.dump_dir {
                 let dump = crate::validation_dump::ValidationDump::new(dir)
                     .map_err(MissionError::Planner)?;
-                ex = ex.with_dump(dump);
+                t_plan.host.dump = Some(dump);
             }
         }
-        t_plan = t_plan.with_exploration(ex);
+        t_plan.nav = t_plan.nav.with_exploration(ex);
     }
     let c = &cfg.control;
     let mut t_control = control::ControlTask::new(
@@ -717,7 +723,7 @@ pub fn run<C: FrameClock>(
     let suppressed_events = exec.suppressed_events();
     // The executive borrows the tasks; release them to read SLAM's result.
     drop(exec);
-    if let Some(w) = t_plan.exploration().and_then(|e| e.worker.as_ref()) {
+    if let Some(w) = &t_plan.host.worker {
         tasks.push(worker_figures(w, minor_frame_us));
     }
     track.odom_origin = odom_origin.map(|(p, q)| (p, 2.0 * q[3].atan2(q[0])));
@@ -746,7 +752,7 @@ pub fn run<C: FrameClock>(
     let planner =
         planner_on.then(|| crate::planner_figures::figures(&t_plan, cfg.planner.max_nodes));
     let mut explored = None;
-    let exploration = t_plan.exploration().map(|e| {
+    let exploration = t_plan.nav.exploration().map(|e| {
         use crate::exploration_figures as ef;
         let mut f = ef::onboard(e, &t_control.counters);
         // The ground under home, every keyframe and the rover now. A full
@@ -807,10 +813,10 @@ pub fn run<C: FrameClock>(
         faults: fault_log.figures(),
         exploration,
         explored,
-        exploration_home: t_plan.exploration().map(|e| e.explorer.home()),
-        internal_sim: t_plan
-            .exploration()
-            .and_then(|e| crate::exploration_figures::internal_sim(e, minor_frame_us)),
+        exploration_home: t_plan.nav.exploration().map(|e| e.explorer.home()),
+        internal_sim: t_plan.nav.exploration().and_then(|e| {
+            crate::exploration_figures::internal_sim(e, t_plan.host.worker.as_ref(), minor_frame_us)
+        }),
         world_from_map: track.odom_origin,
         frames,
         sim_time_s: frames as f64 * minor_frame_us as f64 * 1e-6,

@@ -8,7 +8,8 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 use speleo_scheduler::histogram::Histogram;
 
-use crate::tasks::planner::{PlannerCounters, PlannerTask, PHASE_NAMES};
+use crate::tasks::planner::PlannerTask;
+use speleo_navigator::{NavigatorCounters, STEP_PHASES};
 
 #[derive(Clone, Debug, Serialize)]
 pub struct PlannerFigures {
@@ -66,7 +67,8 @@ pub(crate) fn median<T: Copy + Into<f64>>(v: &[T]) -> Option<f64> {
 }
 
 pub fn figures(t: &PlannerTask, max_nodes: usize) -> PlannerFigures {
-    let c: PlannerCounters = t.counters;
+    let n = &t.nav;
+    let c: NavigatorCounters = n.counters;
     let eps = |m: u32| m as f64 / 1000.0;
     PlannerFigures {
         calls: c.queries,
@@ -76,18 +78,18 @@ pub fn figures(t: &PlannerTask, max_nodes: usize) -> PlannerFigures {
         no_goal: c.no_goal,
         no_path: c.no_path,
         abandoned: c.abandoned,
-        first_solution_ms_median: median(&t.first_ms),
-        first_solution_ms_max: t.first_ms.iter().copied().max(),
-        optimal_ms_median: median(&t.optimal_ms),
-        optimal_ms_max: t.optimal_ms.iter().copied().max(),
-        final_eps: t.final_eps_milli.last().map(|&m| eps(m)),
-        final_eps_max: t.final_eps_milli.iter().copied().max().map(eps),
+        first_solution_ms_median: median(&n.first_ms),
+        first_solution_ms_max: n.first_ms.iter().copied().max(),
+        optimal_ms_median: median(&n.optimal_ms),
+        optimal_ms_max: n.optimal_ms.iter().copied().max(),
+        final_eps: n.final_eps_milli.last().map(|&m| eps(m)),
+        final_eps_max: n.final_eps_milli.iter().copied().max().map(eps),
         expansions: c.expansions,
         plans_published: c.plans_published,
         graph_nodes_max: c.nodes_max,
         graphs_full: c.graphs_full,
-        memory_bytes: t.memory_bytes(max_nodes),
-        step_us: PHASE_NAMES
+        memory_bytes: n.memory_bytes(max_nodes),
+        step_us: STEP_PHASES
             .iter()
             .zip(t.step_times.iter().zip(t.step_units_run))
             .zip(&t.step_cpu_times)

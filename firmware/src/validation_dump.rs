@@ -10,6 +10,7 @@
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
+use speleo_navigator::ValidationRecord;
 use speleo_simulator::{Stance, ValidationCase, Verdict};
 
 pub struct ValidationDump {
@@ -32,21 +33,27 @@ impl ValidationDump {
             failed: 0,
         })
     }
+}
 
-    pub fn begin(
-        &self,
-        now: u64,
+impl ValidationRecord for ValidationDump {
+    fn begin(
+        &mut self,
+        now_ns: u64,
         start: Stance,
         way_back: bool,
-        plan: impl IntoIterator<Item = [f64; 4]>,
+        plan: &mut dyn Iterator<Item = [f64; 4]>,
     ) {
-        self.case.borrow_mut().begin(now, start, way_back, plan);
+        self.case.borrow_mut().begin(now_ns, start, way_back, plan);
+    }
+
+    fn case(&self) -> &RefCell<ValidationCase> {
+        &self.case
     }
 
     /// The verdict is in: the case written as validation `index` (the
     /// mission's count, from 1). A failed write is logged and counted;
     /// the mission goes on.
-    pub fn finish(&mut self, index: u64, verdict: Verdict) {
+    fn finish(&mut self, index: u64, verdict: Verdict) {
         let path = self.dir.join(format!("validation-{index:04}.case"));
         let mut case = self.case.borrow_mut();
         case.verdict = Some(verdict);

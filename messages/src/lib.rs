@@ -2,7 +2,9 @@
 //! Plain data: no task, mailbox or schedule knows more of another task than
 //! the message types here.
 
+pub mod attitude;
 mod command;
+mod drives;
 mod exploration;
 mod health;
 mod plan;
@@ -11,6 +13,7 @@ mod raw;
 mod sensors;
 
 pub use command::WheelCommand;
+pub use drives::DriveFeedback;
 pub use exploration::{ExplorationPhase, ExplorationStatus};
 pub use health::{Counters, HealthReport, Timing};
 pub use plan::{PlanMsg, PLAN_POSES};

@@ -5,12 +5,6 @@ use serde::{Deserialize, Serialize};
 
 use super::{range, ConfigError, PlannerStepUnits};
 
-/// The checked rectangle is the body (0.9 x 0.7 m) with this much all
-/// round, m: the follower strays from the path by a few centimetres (more
-/// backing up), and on the lava tube a rover planned to pass a 0.2 m rock
-/// at the body's very edge backed onto it and was stranded.
-const BODY_MARGIN_M: f64 = 0.05;
-
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PlannerConfig {
@@ -94,30 +88,31 @@ pub struct PlannerConfig {
 }
 
 impl Default for PlannerConfig {
+    /// The navigator's defaults (`NavigatorParams::default`).
     fn default() -> Self {
-        let s = speleo_planner::surface::SurfaceParams::default();
-        let t = speleo_traversability::TravParams::default();
+        let n = speleo_navigator::NavigatorParams::default();
+        let (s, t) = (&n.surface, &n.trav);
         PlannerConfig {
             enabled: true,
-            window_m: 30.0,
-            window_max_m: 60.0,
-            max_nodes: 1 << 16,
-            goal_ahead_m: 8.0,
-            replan_every_s: 10.0,
-            max_expansions: 500_000,
-            initial_eps: 3.0,
-            eps_step: 0.2,
+            window_m: n.window_m,
+            window_max_m: n.window_max_m,
+            max_nodes: t.max_nodes,
+            goal_ahead_m: n.goal_ahead_m,
+            replan_every_s: n.replan_every_s,
+            max_expansions: n.max_expansions,
+            initial_eps: n.initial_eps,
+            eps_step: n.eps_step,
             max_slope_deg: t.max_slope_deg,
             max_step_m: decimal(t.max_step_m),
             ground_clearance_m: decimal(t.ground_clearance_m),
             forward_speed_mps: s.forward_speed_mps,
             backward_speed_mps: s.backward_speed_mps,
             turn_speed_rad_s: s.turn_speed_rad_s,
-            body_length_m: s.body_length_m + 2.0 * BODY_MARGIN_M,
-            body_width_m: s.body_width_m + 2.0 * BODY_MARGIN_M,
+            body_length_m: s.body_length_m,
+            body_width_m: s.body_width_m,
             clearance_weight: s.clearance_weight,
-            bump_weight: 10.0,
-            max_bump_m: 0.0,
+            bump_weight: s.bump_weight,
+            max_bump_m: s.max_bump_m,
             edge_weight: s.edge_weight,
             edge_reach_m: s.edge_reach_m,
             body_drop_cells: s.body_drop_cells,
@@ -306,6 +301,21 @@ impl PlannerConfig {
 
     /// Cells of the lattice's map table for the largest growth window at
     /// `resolution_m`.
+    /// The navigator's settings.
+    pub fn navigator_params(&self) -> speleo_navigator::NavigatorParams {
+        speleo_navigator::NavigatorParams {
+            window_m: self.window_m,
+            window_max_m: self.window_max_m,
+            goal_ahead_m: self.goal_ahead_m,
+            replan_every_s: self.replan_every_s,
+            max_expansions: self.max_expansions,
+            initial_eps: self.initial_eps,
+            eps_step: self.eps_step,
+            trav: self.trav_params(),
+            surface: self.surface_params(),
+        }
+    }
+
     pub fn window_cells(&self, resolution_m: f64) -> usize {
         speleo_planner::surface::grid_cells_for_window(
             self.window_max_m,

@@ -10,15 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{range, ConfigError};
 
-/// The planner's timed phases (`tasks::planner::PHASE_NAMES`).
-pub const STEP_PHASES: [&str; 6] = [
-    "grow",
-    "pick",
-    "candidates",
-    "prepare",
-    "search",
-    "validate",
-];
+pub use speleo_navigator::STEP_PHASES;
 
 /// Most units a step of any phase may do.
 pub const MAX_STEP_UNITS: u32 = 1024;

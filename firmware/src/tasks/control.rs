@@ -19,6 +19,7 @@ use speleo_mapping::mls::{drop_at, ground_near, MlsMap};
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::Bus;
+use speleo_messages::attitude::{tilt_deg_of, yaw_of};
 use speleo_messages::WheelCommand;
 
 /// What the task did on plans.
@@ -118,21 +119,6 @@ impl ControlTask {
             .as_ref()
             .map_or(self.follower.done(), PlanFollower::done)
     }
-}
-
-/// Heading (yaw about z) of a (w, x, y, z) quaternion.
-pub fn yaw_of(q: [f64; 4]) -> f64 {
-    let [w, x, y, z] = q;
-    (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
-}
-
-/// Angle between the body's up axis and the vertical, deg.
-pub fn tilt_deg_of(q: [f64; 4]) -> f64 {
-    let [_, x, y, _] = q;
-    (1.0 - 2.0 * (x * x + y * y))
-        .clamp(-1.0, 1.0)
-        .acos()
-        .to_degrees()
 }
 
 /// Log the cell where the probe that made a map stop looked: its patch

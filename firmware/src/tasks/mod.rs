@@ -4,7 +4,6 @@
 pub mod control;
 pub mod drive_driver;
 pub mod drive_output;
-pub mod exploration;
 pub mod health;
 pub mod imu_driver;
 pub mod io;

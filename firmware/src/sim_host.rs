@@ -1,0 +1,38 @@
+//! The internal simulation's host on the rover: the worker core it is lent
+//! to between frames and the record of its validations (`[simulator]
+//! worker_units`, `dump_dir`), as the navigator's [`Rehearsal`].
+
+use speleo_navigator::{Rehearsal, ValidationRecord};
+use speleo_simulator::InternalSim;
+
+use crate::tasks::sim_worker::SimWorker;
+use crate::validation_dump::ValidationDump;
+
+#[derive(Default)]
+pub struct SimHost {
+    /// The core of its own the simulator does most of its work on.
+    pub worker: Option<SimWorker>,
+    /// Every validation's inputs written to files.
+    pub dump: Option<ValidationDump>,
+}
+
+impl Rehearsal for SimHost {
+    fn offloads(&self) -> bool {
+        self.worker.is_some()
+    }
+
+    fn join(&mut self) -> Option<Box<InternalSim>> {
+        self.worker.as_mut().and_then(SimWorker::join)
+    }
+
+    fn lend(&mut self, sim: Box<InternalSim>) -> Result<(), Box<InternalSim>> {
+        match self.worker.as_mut() {
+            Some(w) => w.lend(sim),
+            None => Err(sim),
+        }
+    }
+
+    fn record(&mut self) -> Option<&mut dyn ValidationRecord> {
+        self.dump.as_mut().map(|d| d as &mut dyn ValidationRecord)
+    }
+}
