@@ -22,10 +22,10 @@ use speleo_scheduler::{Enforcement, Executive, FrameClock, Mode, Schedule, Task}
 use crate::bus::Bus;
 use crate::config::Config;
 use crate::record::encode::{FrameTransform, Pose, PoseInFrame, Quaternion, SeqOf, Time};
+use crate::record::messages::mode_name;
 use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
 use crate::slam_figures::{SlamFigures, TruthTrack};
-use crate::tasks::recorder::mode_name;
 use crate::tasks::sim_worker::SimWorker;
 use crate::tasks::{
     control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, maps, odometry,
@@ -256,15 +256,13 @@ fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, Mission
     ))
 }
 
-/// Height of base_link over the ground: it is at the wheel hubs, which the
-/// legs hold at 0.8 to 1 times their length over the ground.
 /// The health task's limits from `[health]`.
-fn health_params(cfg: &Config) -> health::HealthParams {
+fn health_params(cfg: &Config) -> speleo_health::HealthParams {
     let h = &cfg.health;
     let ms = |v: u32| v as u64 * 1_000_000;
     // Checks run every 100 ms.
     let checks = h.wheel_disagreement_ms.div_ceil(100).max(1);
-    health::HealthParams {
+    speleo_health::HealthParams {
         imu_limit_ns: ms(h.imu_timeout_ms),
         drive_limit_ns: ms(h.drive_heartbeat_timeout_ms),
         lidar_limit_ns: ms(h.lidar_timeout_ms),

@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 use crate::mission::{MissionResult, TaskFigures};
-use crate::tasks::recorder::mode_name;
+use crate::record::messages::mode_name;
 
 #[derive(Serialize)]
 pub struct Report<'a> {

@@ -8,7 +8,7 @@ use serde::Serialize;
 use speleo_scheduler::Mode;
 
 use super::FaultSpec;
-use crate::tasks::health::finding;
+use speleo_health::finding;
 
 /// A finding this long after a fault's end still belongs to it (a silence
 /// shows only after its timeout).
@@ -165,7 +165,7 @@ impl FaultLog {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tasks::health::finding::*;
+    use speleo_health::finding::*;
 
     const MS: u64 = 1_000_000;
 

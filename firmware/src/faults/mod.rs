@@ -9,7 +9,7 @@
 pub mod inject;
 pub mod log;
 
-use crate::tasks::health::finding;
+use speleo_health::finding;
 
 /// Everything that can be injected.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

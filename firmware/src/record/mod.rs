@@ -6,6 +6,7 @@ pub mod compare;
 pub mod encode;
 pub mod flatten;
 mod length_check;
+pub mod messages;
 pub mod read;
 pub mod tap;
 pub mod topics;
