@@ -10,8 +10,8 @@ use speleo_control::StopReason;
 use speleo_mapping::mls::MlsMap;
 use speleo_traversability::{TravMap, TravParams};
 
-use crate::tasks::control::ControlCounters;
 use crate::tasks::sim_worker::SimWorker;
+use speleo_control::ControlCounters;
 use speleo_navigator::Exploration;
 
 #[derive(Clone, Debug, Default, Serialize)]

@@ -472,7 +472,7 @@ pub fn run<C: FrameClock>(
         t_plan.nav = t_plan.nav.with_exploration(ex);
     }
     let c = &cfg.control;
-    let mut t_control = control::ControlTask::new(
+    let mut driver = speleo_control::Driver::new(
         follower(cfg),
         SkidSteer {
             wheel_radius_m: r.wheel_radius_m,
@@ -499,8 +499,9 @@ pub fn run<C: FrameClock>(
     );
     let exploring = planner_on && cfg.exploration.enabled;
     if exploring {
-        t_control = t_control.following_plans(follower_params(cfg));
+        driver = driver.following_plans(follower_params(cfg));
     }
+    let mut t_control = control::ControlTask::new(driver);
     let mut t_out =
         drive_output::DriveOutput::new(speleo_hal::canopen::supervisor::SupervisorParams {
             heartbeat_timeout_ns: cfg.health.drive_heartbeat_timeout_ms as u64 * 1_000_000,
@@ -752,7 +753,7 @@ pub fn run<C: FrameClock>(
     let mut explored = None;
     let exploration = t_plan.nav.exploration().map(|e| {
         use crate::exploration_figures as ef;
-        let mut f = ef::onboard(e, &t_control.counters);
+        let mut f = ef::onboard(e, &t_control.counters());
         // The ground under home, every keyframe and the rover now. A full
         // map drops what lies farthest from the rover, so a mission that
         // ended far from home (stranded on the garage's roof) may hold no

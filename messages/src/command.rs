@@ -1,6 +1,6 @@
 //! What the path follower asks of the wheels.
 
-use speleo_control::StopReason;
+use crate::StopReason;
 
 /// The path follower's command.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -11,6 +11,7 @@ mod plan;
 mod pose;
 mod raw;
 mod sensors;
+mod stop;
 
 pub use command::WheelCommand;
 pub use drives::DriveFeedback;
@@ -20,4 +21,4 @@ pub use plan::{PlanMsg, PLAN_POSES};
 pub use pose::{OdomPose, SlamPose};
 pub use raw::{RawEntry, RawFrame, RAW_ARENA_BYTES, RAW_ENTRIES};
 pub use sensors::{Cloud, ImuSample, LidarCounters};
-pub use speleo_control::StopReason;
+pub use stop::StopReason;

@@ -7,13 +7,17 @@
 //! accelerations; [`safety`] stops the rover before it leaves the map,
 //! tips or digs in.
 
+pub mod driver;
 pub mod legs;
 pub mod limits;
+mod mls_probe;
 pub mod plan_follower;
 pub mod safety;
 
+pub use driver::{ControlCounters, Driver};
 pub use legs::{split_legs, Leg, MAX_LEGS};
 pub use limits::{AccelLimiter, AccelLimits};
+pub use mls_probe::MlsProbe;
 pub use plan_follower::{PlanFollower, REVERSE_SPEED_SCALE};
 pub use safety::{GroundProbe, Probe, SafetyMonitor, SafetyParams, StopReason};
 
