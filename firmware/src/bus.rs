@@ -34,10 +34,10 @@ pub struct Bus {
     pub odom_counters: OdometryCounters,
     /// The keyframes' clouds and poses for the maps: written by slam, read
     /// by maps. Empty until the mission sizes it.
-    pub keyframe_clouds: crate::keyframe_clouds::KeyframeClouds,
+    pub keyframe_clouds: speleo_mapping::KeyframeClouds,
     /// The multi-level surface maps: written by maps, read by the planner.
     /// One-cell maps until the mission sizes them.
-    pub surface: crate::surface_maps::SurfaceMaps,
+    pub surface: speleo_mapping::SurfaceMaps,
     pub command: Latest<WheelCommand>,
     /// Written by the planner.
     pub plan: Latest<PlanMsg>,
@@ -75,8 +75,8 @@ impl Bus {
                 ODOM_HISTORY_EXTRAPOLATION_NS,
             ),
             odom_counters: OdometryCounters::default(),
-            keyframe_clouds: crate::keyframe_clouds::KeyframeClouds::new(0, 0),
-            surface: crate::surface_maps::SurfaceMaps::empty(),
+            keyframe_clouds: speleo_mapping::KeyframeClouds::new(0, 0),
+            surface: speleo_mapping::SurfaceMaps::empty(),
             command: Latest::new(),
             plan: Latest::new(),
             exploration: ExplorationStatus::default(),

@@ -137,8 +137,8 @@ pub struct MissionResult {
 pub struct MapsResult {
     pub mls: speleo_mapping::mls::MlsStats,
     pub memory_bytes: usize,
-    pub counters: maps::MapsCounters,
-    pub keyframes: crate::keyframe_clouds::KeyframeClouds,
+    pub counters: speleo_mapping::MapsCounters,
+    pub keyframes: speleo_mapping::KeyframeClouds,
     /// The LiDAR mount, base <- sensor (the clouds are in the base frame).
     pub mount: speleo_slam::lie::Pose,
 }
@@ -420,14 +420,15 @@ pub fn run<C: FrameClock>(
     let kf_capacity = cfg.slam.keyframe_capacity;
     let mut t_maps = if maps_on {
         bus.keyframe_clouds =
-            crate::keyframe_clouds::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
+            speleo_mapping::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
         t_slam = t_slam.with_maps(cfg.maps.range_m, cfg.maps.keyframe_points);
-        bus.surface = crate::surface_maps::SurfaceMaps::new(cfg.maps.mls_params())?;
-        let t = maps::MapsTask::new(&cfg.maps, kf_capacity)?.with_sensor_at(cfg.lidar.mount_xyz);
-        match expected_ground(cfg)? {
-            Some(g) => t.with_expected_ground(g),
-            None => t,
+        bus.surface = speleo_mapping::SurfaceMaps::new(cfg.maps.mls_params())?;
+        let mut t = maps::MapsTask::new(&cfg.maps, kf_capacity);
+        t.builder = t.builder.with_sensor_at(cfg.lidar.mount_xyz);
+        if let Some(g) = expected_ground(cfg)? {
+            t.builder = t.builder.with_expected_ground(g);
         }
+        t
     } else {
         // Idle: nothing ever reaches the keyframe clouds.
         maps::MapsTask::new(
@@ -436,7 +437,7 @@ pub fn run<C: FrameClock>(
                 ..cfg.maps.clone()
             },
             0,
-        )?
+        )
     };
     let planner_on = maps_on && cfg.planner.enabled;
     let mut t_plan = build_planner(cfg, planner_on)?;
@@ -741,10 +742,10 @@ pub fn run<C: FrameClock>(
     let maps = maps_on.then(|| MapsResult {
         mls: bus.surface.stats(),
         memory_bytes: bus.surface.memory_bytes() + bus.keyframe_clouds.memory_bytes(),
-        counters: t_maps.counters,
+        counters: t_maps.builder.counters,
         keyframes: std::mem::replace(
             &mut bus.keyframe_clouds,
-            crate::keyframe_clouds::KeyframeClouds::new(0, 0),
+            speleo_mapping::KeyframeClouds::new(0, 0),
         ),
         mount: mount_pose(cfg),
     });

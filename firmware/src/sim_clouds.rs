@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 use speleo_simulator::CloudSource;
 use speleo_slam::lie::Pose;
 
-use crate::keyframe_clouds::KeyframeClouds;
+use speleo_mapping::KeyframeClouds;
 
 pub struct MapClouds<'a> {
     pub clouds: &'a KeyframeClouds,

@@ -17,10 +17,17 @@
 //! and counted. The same inputs give bit-identical maps (fixed hashes,
 //! fixed orders, one thread, no transcendental functions).
 
+pub mod builder;
 mod hash;
+pub mod keyframes;
 pub mod marching_cubes;
 pub mod mls;
+pub mod surface_maps;
 pub mod tsdf;
+
+pub use builder::{BuilderParams, MapBuilder, MapsCounters};
+pub use keyframes::KeyframeClouds;
+pub use surface_maps::SurfaceMaps;
 
 /// A parameter that makes a map impossible to build.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -2,8 +2,8 @@
 //! planner reads it) and the spare the `maps` task rebuilds into after a
 //! loop closure or when the serving one is full. Written by `maps` only.
 
-use speleo_mapping::mls::{MlsMap, MlsParams, MlsStats};
-use speleo_mapping::ParamsError;
+use crate::mls::{MlsMap, MlsParams, MlsStats};
+use crate::ParamsError;
 
 pub struct SurfaceMaps {
     maps: [MlsMap; 2],
