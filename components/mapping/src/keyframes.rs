@@ -157,6 +157,20 @@ impl KeyframeClouds {
     }
 }
 
+impl speleo_slam::staging::MapSink for KeyframeClouds {
+    fn begin(&mut self) -> bool {
+        KeyframeClouds::begin(self)
+    }
+
+    fn push(&mut self, p: [f64; 3]) {
+        KeyframeClouds::push(self, p)
+    }
+
+    fn commit(&mut self) {
+        KeyframeClouds::commit(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -16,3 +16,4 @@ pub mod initialize;
 pub mod lie;
 pub mod registration;
 pub mod solver;
+pub mod staging;

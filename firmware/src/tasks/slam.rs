@@ -6,59 +6,30 @@
 //! a GICP pass, insert the factors, or one Levenberg-Marquardt iteration.
 //! A unit visits at most `slam.points_per_step` points.
 
-use nalgebra::{Isometry3, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_scheduler::{Context, StepResult, Task};
-use speleo_slam::deskew::deskew;
 use speleo_slam::graph_slam::{GraphSlam, SlamParams};
 use speleo_slam::lie::Pose;
+use speleo_slam::staging::Stager;
 
 use crate::bus::Bus;
 use crate::config::FalseLoopClosure;
 use speleo_messages::SlamPose;
 
-/// Points within this span of firing times share one deskewing pose.
-const DESKEW_SLICE_S: f64 = 100e-6;
-
 /// A unit of keyframe work this long on the thread's CPU clock is logged
 /// (debug), ns.
 const SLOW_UNIT_NS: u64 = 1_000_000;
-
-/// Returns closer than this hit the rover itself.
-const MIN_RANGE_M: f32 = 0.6;
 
 pub struct SlamTask {
     slam: GraphSlam,
     /// `slam.enabled`: when off, the task publishes the odometry pose.
     enabled: bool,
-    /// LiDAR mount: base <- sensor.
-    mount: Pose,
-    /// Points one step moves into the base frame and deskews.
-    points_per_step: usize,
     cloud_seen: u64,
-    /// The revolution taken for a keyframe: sensor-frame points and their
-    /// times, copied as they came...
-    raw: Vec<[f32; 3]>,
-    times: Vec<f32>,
-    /// Range of each staged point from the sensor.
-    ranges: Vec<f32>,
-    /// ...and, a part per step, in the base frame at the first firing.
-    points: Vec<[f64; 3]>,
-    /// When and where the staged revolution began.
-    staged: Option<(u64, Pose)>,
-    /// Mapping: returns within this range go to the keyframe clouds on the
-    /// bus (`None`: no maps), thinned to this many points...
-    map_range_m: Option<f32>,
-    map_points: usize,
-    /// ...from this many in range in the staged revolution.
-    staged_in_map_range: usize,
-    /// Points of the staged revolution seen so far within the map range.
-    map_seen: usize,
+    /// The revolution becoming a keyframe.
+    pub stager: Stager,
     /// The graph changed since the keyframe poses were last published.
     poses_stale: bool,
-    /// Revolutions that could not be placed in the odometry history.
-    pub scans_without_odometry: u64,
-    pub points_not_deskewed: u64,
     /// A wrong loop closure still to inject (fault injection).
     false_loop: Option<FalseLoopClosure>,
 }
@@ -66,23 +37,11 @@ pub struct SlamTask {
 impl SlamTask {
     pub fn new(p: SlamParams, enabled: bool, mount: Pose, max_cloud_points: usize) -> Self {
         SlamTask {
-            ranges: Vec::with_capacity(max_cloud_points),
-            map_range_m: None,
-            map_points: 0,
-            staged_in_map_range: 0,
-            map_seen: 0,
+            stager: Stager::new(mount, p.points_per_step, max_cloud_points),
             poses_stale: false,
-            points_per_step: p.points_per_step.max(1),
             slam: GraphSlam::new(p),
             enabled,
-            mount,
             cloud_seen: 0,
-            raw: Vec::with_capacity(max_cloud_points),
-            times: Vec::with_capacity(max_cloud_points),
-            points: Vec::with_capacity(max_cloud_points),
-            staged: None,
-            scans_without_odometry: 0,
-            points_not_deskewed: 0,
             false_loop: None,
         }
     }
@@ -91,8 +50,7 @@ impl SlamTask {
     /// `points`, thinned evenly) into the bus's keyframe clouds, and
     /// publish the keyframe poses after every optimisation, for the maps.
     pub fn with_maps(mut self, range_m: f64, points: usize) -> Self {
-        self.map_range_m = Some(range_m as f32);
-        self.map_points = points;
+        self.stager = self.stager.with_maps(range_m, points);
         self
     }
 
@@ -134,126 +92,25 @@ impl SlamTask {
         &self.slam
     }
 
-    /// Stage the newest revolution when it should become a keyframe: only
-    /// a copy here, the work is spread over the steps.
+    /// Stage the newest revolution when it should become a keyframe.
     fn take_cloud(&mut self, bus: &mut Bus) {
         let Some(c) = bus.cloud.newer_than(self.cloud_seen) else {
             return;
         };
         self.cloud_seen = c.seq;
-        if !self.slam.is_idle() || self.staged.is_some() {
-            return;
-        }
-        let cloud = &c.value;
-        // The cloud is stamped when the packet that completed it arrived,
-        // which the sensor's clock puts `end_us - start_us` after the first
-        // firing (the network's latency, a fraction of a millisecond, is
-        // not known here).
-        let span_ns = ((cloud.end_us - cloud.start_us).max(0.0) * 1e3) as u64;
-        let t0 = c.stamp_ns.saturating_sub(span_ns);
-        let Some(odom0) = bus.odom_history.at(t0) else {
-            self.scans_without_odometry += 1;
-            return;
-        };
-        let odom0 = Pose::from_isometry(&odom0);
-        if !self.slam.wants_keyframe(&odom0) {
-            return;
-        }
-        self.raw.clear();
-        self.times.clear();
-        self.ranges.clear();
-        self.points.clear();
-        let slam_range = self.slam.params().max_range_m as f32;
-        let range = self.map_range_m.map_or(slam_range, |m| m.max(slam_range));
-        self.staged_in_map_range = 0;
-        self.map_seen = 0;
-        for p in &cloud.points {
-            if p.distance < MIN_RANGE_M
-                || p.distance > range
-                || self.raw.len() == self.raw.capacity()
-            {
-                continue;
-            }
-            if self.map_range_m.is_some_and(|m| p.distance <= m) {
-                self.staged_in_map_range += 1;
-            }
-            self.raw.push([p.x, p.y, p.z]);
-            self.times.push(p.time);
-            self.ranges.push(p.distance);
-        }
-        if self.map_range_m.is_some() {
-            bus.keyframe_clouds.begin();
-        }
-        self.staged = Some((t0, odom0));
+        let history = &bus.odom_history;
+        let at = |t: u64| history.at(t);
+        let sink = &mut bus.keyframe_clouds;
+        self.stager
+            .take(&self.slam, &c.value, c.stamp_ns, &at, sink);
     }
 
-    /// Move the next part of the staged revolution into the base frame and
-    /// deskew it; when all of it is done, offer it to SLAM as a keyframe.
+    /// The next part of the staged revolution.
     fn deskew_part(&mut self, bus: &mut Bus) {
-        let Some((t0, odom0)) = self.staged else {
-            return;
-        };
-        let from = self.points.len();
-        let to = (from + self.points_per_step).min(self.raw.len());
-        for r in &self.raw[from..to] {
-            let v = self
-                .mount
-                .transform(&Vector3::new(r[0] as f64, r[1] as f64, r[2] as f64));
-            self.points.push([v.x, v.y, v.z]);
-        }
         let history = &bus.odom_history;
-        let slam = &self.slam;
-        // The odometry's motion since the first firing, at the distance
-        // scale the registrations have measured.
-        self.points_not_deskewed += deskew(
-            &mut self.points[from..to],
-            &self.times[from..to],
-            DESKEW_SLICE_S,
-            |dt| {
-                history
-                    .at(t0 + (dt * 1e9) as u64)
-                    .map(|iso: Isometry3<f64>| {
-                        odom0.compose(
-                            &slam.scale_odometry(&odom0.between(&Pose::from_isometry(&iso))),
-                        )
-                    })
-            },
-        ) as u64;
-        if let Some(m) = self.map_range_m {
-            // Even thinning: the j-th point in range is kept when it moves
-            // floor(j * kept / in_range) on.
-            let (n, keep) = (self.staged_in_map_range, self.map_points);
-            for (p, &r) in self.points[from..to].iter().zip(&self.ranges[from..to]) {
-                if r > m {
-                    continue;
-                }
-                let j = self.map_seen;
-                self.map_seen += 1;
-                if n <= keep || (j + 1) * keep / n > j * keep / n {
-                    bus.keyframe_clouds.push(*p);
-                }
-            }
-        }
-        if to < self.raw.len() {
-            return;
-        }
-        self.staged = None;
-        // Gravity in the base frame at the revolution's first firing. The
-        // MTi's last sample is up to a revolution late, and a legged rover
-        // rocks by degrees within that time; the odometry's attitude is the
-        // MTi's roll and pitch carried to any instant by the gyro.
-        let up = odom0.r.transpose() * Vector3::z();
-        let slam_range = self.slam.params().max_range_m as f32;
-        let (points, ranges) = (&self.points, &self.ranges);
-        let scan = points
-            .iter()
-            .zip(ranges)
-            .filter(move |(_, &r)| r <= slam_range)
-            .map(|(p, _)| *p);
-        let taken = self.slam.offer_scan(t0, odom0, up, scan);
-        if taken && self.map_range_m.is_some() {
-            bus.keyframe_clouds.commit();
-        }
+        let at = |t: u64| history.at(t);
+        let sink = &mut bus.keyframe_clouds;
+        self.stager.deskew_part(&mut self.slam, &at, sink);
     }
 }
 
@@ -286,7 +143,7 @@ impl Task<Bus> for SlamTask {
 
     fn step(&mut self, bus: &mut Bus, _cx: &Context, quantum: u32) -> StepResult {
         for _ in 0..quantum.max(1) {
-            if self.staged.is_some() {
+            if self.stager.is_staged() {
                 self.deskew_part(bus);
                 continue;
             }
@@ -316,7 +173,7 @@ impl Task<Bus> for SlamTask {
                 );
             }
             if !busy {
-                if self.poses_stale && self.map_range_m.is_some() {
+                if self.poses_stale && self.stager.maps() {
                     self.poses_stale = false;
                     let slam = &self.slam;
                     bus.keyframe_clouds
