@@ -10,7 +10,7 @@ use speleo_control::StopReason;
 use speleo_mapping::mls::MlsMap;
 use speleo_traversability::{TravMap, TravParams};
 
-use crate::tasks::sim_worker::SimWorker;
+use crate::sim_host::SimWorker;
 use speleo_control::ControlCounters;
 use speleo_navigator::Exploration;
 

@@ -11,7 +11,6 @@ pub mod faults;
 pub mod maps_output;
 pub mod mission;
 pub mod modes;
-pub mod planner_calibration;
 pub mod planner_figures;
 pub mod plot;
 pub mod record;

@@ -10,7 +10,16 @@ use serde::Serialize;
 use speleo_mapping::marching_cubes::{write_ply, Mesh, MeshBuffers};
 use speleo_mapping::tsdf::{TsdfParams, TsdfVolume};
 
-use crate::mission::MapsResult;
+/// The maps at the end of a run: the MLS map's figures, and the keyframe
+/// clouds with their final poses, for a mesh or an export.
+pub struct MapsResult {
+    pub mls: speleo_mapping::mls::MlsStats,
+    pub memory_bytes: usize,
+    pub counters: speleo_mapping::MapsCounters,
+    pub keyframes: speleo_mapping::KeyframeClouds,
+    /// The LiDAR mount, base <- sensor (the clouds are in the base frame).
+    pub mount: speleo_slam::lie::Pose,
+}
 
 type Error = Box<dyn std::error::Error>;
 

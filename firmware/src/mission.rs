@@ -25,8 +25,8 @@ use crate::record::encode::{FrameTransform, Pose, PoseInFrame, Quaternion, SeqOf
 use crate::record::messages::mode_name;
 use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
+use crate::sim_host::SimWorker;
 use crate::slam_figures::{SlamFigures, TruthTrack};
-use crate::tasks::sim_worker::SimWorker;
 use crate::tasks::{
     control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, maps, odometry,
     planner, recorder, slam,
@@ -122,7 +122,7 @@ pub struct MissionResult {
     pub counters: speleo_messages::Counters,
     pub slam: Option<SlamFigures>,
     /// The maps at the end of the run, when kept.
-    pub maps: Option<MapsResult>,
+    pub maps: Option<crate::maps_output::MapsResult>,
     /// The report's `maps` section, once the run's requests are done.
     pub maps_figures: Option<crate::maps_output::MapsFigures>,
     pub planner: Option<crate::planner_figures::PlannerFigures>,
@@ -130,17 +130,6 @@ pub struct MissionResult {
     pub faults: crate::faults::log::FaultFigures,
     /// None without the accounting allocator.
     pub memory: Option<MemoryFigures>,
-}
-
-/// The maps at the end of a run: the MLS map's figures, and the keyframe
-/// clouds with their final poses, for a mesh or an export.
-pub struct MapsResult {
-    pub mls: speleo_mapping::mls::MlsStats,
-    pub memory_bytes: usize,
-    pub counters: speleo_mapping::MapsCounters,
-    pub keyframes: speleo_mapping::KeyframeClouds,
-    /// The LiDAR mount, base <- sensor (the clouds are in the base frame).
-    pub mount: speleo_slam::lie::Pose,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -739,7 +728,7 @@ pub fn run<C: FrameClock>(
             m.truth.as_ref().map(|_| cfg.sim.imu_misalignment_deg),
         )
     });
-    let maps = maps_on.then(|| MapsResult {
+    let maps = maps_on.then(|| crate::maps_output::MapsResult {
         mls: bus.surface.stats(),
         memory_bytes: bus.surface.memory_bytes() + bus.keyframe_clouds.memory_bytes(),
         counters: t_maps.builder.counters,

@@ -61,7 +61,7 @@ pub const WIRING: [Wiring; 13] = [
     },
     Wiring {
         task: "planner",
-        files: &["planner.rs", "sim_worker.rs"],
+        files: &["planner.rs"],
         writes: &["plan", "exploration"],
         reads: &["slam", "surface", "command", "drives", "keyframe_clouds"],
     },

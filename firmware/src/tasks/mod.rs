@@ -12,7 +12,6 @@ pub mod maps;
 pub mod odometry;
 pub mod planner;
 pub mod recorder;
-pub mod sim_worker;
 pub mod slam;
 
 /// The context of frame `frame` of 10 ms frames in nominal mode, for task

@@ -5,8 +5,10 @@
 use speleo_navigator::{Rehearsal, ValidationRecord};
 use speleo_simulator::InternalSim;
 
-use crate::tasks::sim_worker::SimWorker;
+mod worker;
+
 use crate::validation_dump::ValidationDump;
+pub use worker::{SimWorker, WorkerCounters};
 
 #[derive(Default)]
 pub struct SimHost {

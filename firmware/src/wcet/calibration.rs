@@ -12,8 +12,8 @@ use std::fmt::Write;
 
 use speleo_scheduler::histogram::Histogram;
 
+use super::ScenarioReport;
 use crate::config::{PlannerStepUnits, MAX_STEP_UNITS, STEP_PHASES};
-use crate::wcet::ScenarioReport;
 
 /// Share of the window the calibrated steps fill at their p99.9.
 const FILL: f64 = 0.9;

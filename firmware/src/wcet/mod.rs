@@ -24,7 +24,9 @@ use serde::Serialize;
 use crate::cli::Outputs;
 use crate::config::{Config, STEP_PHASES};
 use crate::mission::{MissionResult, TaskFigures};
-use crate::planner_calibration::planner_calibration;
+mod calibration;
+
+use calibration::planner_calibration;
 
 type Error = Box<dyn std::error::Error>;
 
@@ -343,7 +345,7 @@ fn write_calibration(
             ),
             None => println!(
                 "  {name:<10} {now:>4} (kept: fewer than {} steps of it measured)",
-                crate::planner_calibration::MIN_STEPS
+                calibration::MIN_STEPS
             ),
         }
     }
