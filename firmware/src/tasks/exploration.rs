@@ -16,7 +16,7 @@ use speleo_simulator::{
 use crate::tasks::sim_worker::SimWorker;
 use crate::validation_dump::ValidationDump;
 use speleo_hal::cia402;
-use speleo_hal::sim::quat;
+use speleo_physics::quat;
 use speleo_slam::lie::Pose;
 
 use crate::bus::Bus;
