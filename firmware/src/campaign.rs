@@ -19,7 +19,7 @@ struct ThisBinary;
 
 impl Catalog for ThisBinary {
     fn waypoints(&self, world: &str, seed: u64) -> Result<Vec<String>, String> {
-        let w = speleo_hal::world::World::build(world, seed).map_err(|e| e.to_string())?;
+        let w = speleo_twin::world::World::build(world, seed).map_err(|e| e.to_string())?;
         Ok(crate::tools::plan_world::waypoints(&w)
             .into_iter()
             .map(|(n, _)| n)
@@ -188,7 +188,7 @@ fn report(a: CampaignReportArgs) -> Result<ExitCode, Error> {
     if let Some(p) = &a.plot {
         let mut maps = Vec::new();
         for ((world, seed), cases) in speleo_campaign::plot::cases_by_world(&s) {
-            let w = speleo_hal::world::World::build(&world, seed)
+            let w = speleo_twin::world::World::build(&world, seed)
                 .map_err(|e| format!("the plot's map of {world}: {e}"))?;
             let name = Path::new(&world)
                 .file_name()
@@ -209,7 +209,7 @@ fn report(a: CampaignReportArgs) -> Result<ExitCode, Error> {
 /// The floor seen from above: the centre of every cell under some face
 /// within 20 degrees of level, facing up, with its size, m (a plot's
 /// pixel or two: 0.25 m, coarser for a large world).
-fn floor_from_above(m: &speleo_hal::world::mesh::Mesh) -> (Vec<[f64; 2]>, f64) {
+fn floor_from_above(m: &speleo_physics::Mesh) -> (Vec<[f64; 2]>, f64) {
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
     for v in &m.vertices {

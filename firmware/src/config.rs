@@ -134,7 +134,7 @@ pub struct SimConfig {
     /// --help`), e.g. `lidar-dropout@20+5`.
     pub faults: Vec<String>,
     /// The physics rover's build.
-    pub rover: speleo_hal::sim::PhysicsParams,
+    pub rover: speleo_physics::PhysicsParams,
     /// Where the rover starts instead of the world's start: x, y, floor
     /// z (m, world frame) and yaw (degrees), or one of the world's
     /// waypoints by name (`speleo world waypoints`). Home is there too;
@@ -184,7 +184,7 @@ impl Default for SimConfig {
             imu_misalignment_deg: [0.0; 3],
             false_loop_closure: None,
             faults: Vec::new(),
-            rover: speleo_hal::sim::PhysicsParams::default(),
+            rover: speleo_physics::PhysicsParams::default(),
             start: None,
             success: Default::default(),
         }
@@ -202,7 +202,7 @@ pub struct RoverConfig {
 
 impl Default for RoverConfig {
     fn default() -> Self {
-        let r = speleo_hal::sim::RoverParams::default();
+        let r = speleo_twin::RoverParams::default();
         RoverConfig {
             wheel_radius_m: r.wheel_radius_m,
             track_width_m: r.track_width_m,

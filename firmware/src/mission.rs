@@ -11,13 +11,13 @@ use speleo_control::{
     AccelLimiter, AccelLimits, FollowerParams, Path, PurePursuit, SafetyMonitor, SafetyParams,
     SkidSteer,
 };
-use speleo_hal::sim::TruthProbe;
 use speleo_hal::{cia402, Hardware};
 use speleo_odometry::OdometryParams;
 use speleo_scheduler::accounting;
 use speleo_scheduler::executive::ExecutiveError;
 use speleo_scheduler::realtime::StdPlatform;
 use speleo_scheduler::{Enforcement, Executive, FrameClock, Mode, Schedule, Task};
+use speleo_twin::TruthProbe;
 
 use crate::bus::Bus;
 use crate::config::Config;

@@ -11,10 +11,10 @@ use std::thread::JoinHandle;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use speleo_hal::replay::ReplayHardware;
-use speleo_hal::sim::{RoverParams, SimHardware, SimParams, TruthProbe};
 use speleo_hal::Hardware;
 use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
 use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
+use speleo_twin::{RoverParams, SimHardware, SimParams, TruthProbe};
 
 use crate::cli::{
     DecodeCommand, G2oArgs, MeshArgs, Outputs, Pcap2mcapArgs, RegisterArgs, ReplayArgs, RunArgs,
@@ -363,7 +363,7 @@ pub(crate) fn simulate(
     progress: bool,
 ) -> Result<MissionResult, Error> {
     cfg.validate()?;
-    let mut world = speleo_hal::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
+    let mut world = speleo_twin::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
     if let Some(spec) = &cfg.sim.start {
         world.start = match spec {
             StartSpec::Pose([x, y, z, yaw_deg]) => [*x, *y, *z, yaw_deg.to_radians()],
@@ -490,8 +490,8 @@ fn plot_data(r: &MissionResult) -> crate::plot::PlotData {
 /// fraction of the world's reachable floor that the explored map covers.
 fn exploration_truth(
     cfg: &Config,
-    world: &speleo_hal::world::World,
-    strikes: &speleo_hal::sim::Strikes,
+    world: &speleo_twin::world::World,
+    strikes: &speleo_twin::Strikes,
     r: &mut MissionResult,
 ) -> Result<(), Error> {
     use crate::exploration_figures as ef;
@@ -554,11 +554,11 @@ pub fn sim_params(cfg: &Config) -> SimParams {
             ..RoverParams::default()
         },
         physics: (cfg.sim.rover_model == "physics").then(|| cfg.sim.rover.clone()),
-        imu: speleo_hal::sim::imu::ImuParams {
+        imu: speleo_twin::imu::ImuParams {
             misalignment_rpy: [mr, mp, my],
             ..Default::default()
         },
-        lidar: cfg.sim.lidar.then(|| speleo_hal::sim::lidar::LidarParams {
+        lidar: cfg.sim.lidar.then(|| speleo_twin::lidar::LidarParams {
             rate_hz: cfg.sim.lidar_rate_hz,
             cast_threads: cfg.sim.lidar_cast_threads,
             ..Default::default()
@@ -577,7 +577,7 @@ pub fn sim_params(cfg: &Config) -> SimParams {
 /// back, the route is followed by its reverse down to the start. A route
 /// longer than the path capacity is shortened from its far end (both ways).
 fn route_in_odometry_frame(
-    w: &speleo_hal::world::World,
+    w: &speleo_twin::world::World,
     out_and_back: bool,
     length_m: f64,
 ) -> Vec<[f64; 2]> {
@@ -899,7 +899,7 @@ pub fn decode(d: DecodeCommand) -> Result<ExitCode, Error> {
 }
 
 pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
-    let w = speleo_hal::world::World::build(&a.world, a.seed)?;
+    let w = speleo_twin::world::World::build(&a.world, a.seed)?;
     let f = std::fs::File::create(&a.out)
         .map_err(|e| format!("cannot create {}: {e}", a.out.display()))?;
     let mut out = std::io::BufWriter::new(f);
@@ -1019,7 +1019,7 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
             )
         })?;
         let (start, plan, err) = tv::in_world(&case, &truth)?;
-        let world = speleo_hal::world::World::build(name, a.seed)?;
+        let world = speleo_twin::world::World::build(name, a.seed)?;
         let ground = tv::crop(&world.mesh, start.position, &plan, params.margin_m);
         let mut wt = a.world_track.as_deref().map(create).transpose()?;
         let t = tv::drive_on(
@@ -1101,7 +1101,7 @@ pub fn plan(a: crate::cli::PlanArgs) -> Result<ExitCode, Error> {
 }
 
 pub fn world_waypoints(a: crate::cli::WorldWaypointsArgs) -> Result<ExitCode, Error> {
-    let w = speleo_hal::world::World::build(&a.world, a.seed)?;
+    let w = speleo_twin::world::World::build(&a.world, a.seed)?;
     for (name, p) in crate::tools::plan_world::waypoints(&w) {
         println!(
             "{name:10} {:8.2} {:8.2} {:7.2} {:7.1}",

@@ -2,7 +2,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use speleo_hal::world::{obj, ply, stl};
+use speleo_physics::terrain::{obj, ply, stl};
 
 fuzz_target!(|data: &[u8]| {
     for parsed in [ply::parse(data), obj::parse(data), stl::parse(data)] {

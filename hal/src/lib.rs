@@ -3,9 +3,10 @@
 //! Everything the rover exchanges with its devices crosses these traits as raw
 //! wire bytes: HDL-32E UDP packets, the Xsens serial byte stream and CAN frames
 //! for the CiA 402 motor drives. Three backends sit behind them: the real
-//! devices ([`real`]), simulated hardware ([`sim`]) and [`replay`] of a
-//! recording. Because the simulation emits the real wire formats, sim, replay
-//! and the rover all run the same decoders.
+//! devices ([`real`]), the simulated hardware of the `speleo-twin` crate and
+//! [`replay`] of a recording. Because the twin emits the real wire formats
+//! (with this crate's encoders), sim, replay and the rover all run the same
+//! decoders.
 
 pub mod can;
 pub mod canopen;
@@ -17,8 +18,6 @@ pub mod pcap;
 pub mod real;
 pub mod replay;
 pub mod shared_data;
-pub mod sim;
-pub mod world;
 pub mod xbus;
 pub mod xsens_config;
 

@@ -120,6 +120,30 @@ fn no_component_and_no_message_depends_on_firmware() {
     assert_never(&g, "speleo-messages", &["speleo-firmware"]);
 }
 
+/// The simulation's heavy crates: rigid-body physics and collision
+/// (rapier3d, parry3d) and the LiDAR twin's ray casting (obvhs, glam).
+const SIMULATION_CRATES: [&str; 4] = ["rapier3d", "parry3d", "obvhs", "glam"];
+
+#[test]
+fn the_flight_hal_builds_without_the_simulation() {
+    // The hardware twin and the physics live in speleo-twin and
+    // speleo-physics; the HAL the rover flies keeps to its devices.
+    let g = graph();
+    assert_never(&g, "speleo-hal", &SIMULATION_CRATES);
+}
+
+#[test]
+fn the_internal_simulator_does_not_depend_on_the_hal() {
+    // It drives the physics rover on the rover's own map: it borrows the
+    // physics, never the twin; the HAL's codecs reach it only through the
+    // messages it reads (plans, stop reasons).
+    let g = graph();
+    assert_never(&g, "speleo-simulator", &["speleo-twin"]);
+    let direct = &g["speleo-simulator"];
+    assert!(!direct.contains("speleo-hal"), "{direct:?}");
+    assert!(direct.contains("speleo-physics"), "{direct:?}");
+}
+
 #[test]
 fn the_rules_are_checked_on_a_graph_that_has_the_crates() {
     // A rule over a crate the graph lacks would pass for nothing.
@@ -129,8 +153,18 @@ fn the_rules_are_checked_on_a_graph_that_has_the_crates() {
         "speleo-messages",
         "speleo-hal",
         "speleo-planner",
+        "speleo-physics",
+        "speleo-twin",
+        "speleo-simulator",
     ] {
         assert!(g.contains_key(c), "{c} is not in the graph");
     }
     assert!(reach(&g, "speleo-firmware").contains("speleo-messages"));
+    // The forbidden crates are in the graph under these names: the twin
+    // reaches them all, and the HAL whose codecs it encodes with.
+    let twin = reach(&g, "speleo-twin");
+    for c in SIMULATION_CRATES {
+        assert!(twin.contains(c), "speleo-twin does not reach {c}");
+    }
+    assert!(twin.contains("speleo-hal"));
 }

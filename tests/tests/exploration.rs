@@ -133,7 +133,7 @@ fn a_rover_wrecked_in_a_fall_ends_the_mission_and_the_report_says_so() {
 fn a_mesh_file_world_has_its_reachable_floor_and_a_coverage_figure() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
     let ply = dir.path().join("short-tube.ply");
-    let world = speleo_hal::world::World::build("short-tube", 1).unwrap_or_else(|e| panic!("{e}"));
+    let world = speleo_twin::world::World::build("short-tube", 1).unwrap_or_else(|e| panic!("{e}"));
     let mut out = std::fs::File::create(&ply).unwrap_or_else(|e| panic!("{e}"));
     world
         .mesh

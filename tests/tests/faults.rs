@@ -14,10 +14,10 @@ use speleo_firmware::faults::{self, FaultKind};
 use speleo_firmware::mission::{self, Length, MissionInputs};
 use speleo_firmware::record::RecorderTap;
 use speleo_firmware::schedule_table;
-use speleo_hal::sim::{SimHardware, SimParams, TruthProbe};
 use speleo_hal::{CanBus, Hardware, ImuPort, LidarSource};
 use speleo_scheduler::{Enforcement, FrameClock, Mode, VirtualClock};
 use speleo_tests::{read_json, replay, sim_with_config, Scratch};
+use speleo_twin::{SimHardware, SimParams, TruthProbe};
 
 enum Fault {
     PowerCut,

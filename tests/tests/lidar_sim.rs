@@ -7,9 +7,9 @@ use std::process::ExitCode;
 
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use speleo_firmware::record::cdr::read_point_cloud2;
-use speleo_hal::sim::lidar::LidarWorld;
-use speleo_hal::world::World;
 use speleo_tests::{read_json, replay, sim_with_config, Scratch};
+use speleo_twin::lidar::LidarWorld;
+use speleo_twin::world::World;
 
 /// A foxglove pose or transform in JSON as an isometry.
 fn pose(position: &serde_json::Value, q: &serde_json::Value) -> Isometry3<f64> {

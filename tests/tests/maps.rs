@@ -9,8 +9,8 @@ use std::path::Path;
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
 use speleo_firmware::cli::{MeshArgs, Outputs};
 use speleo_firmware::modes;
-use speleo_hal::sim::lidar::LidarWorld;
 use speleo_tests::{read_json, Scratch};
+use speleo_twin::lidar::LidarWorld;
 
 const SEED: u64 = 1;
 const SECONDS: f64 = 20.0;
@@ -33,9 +33,10 @@ fn mesh_tool(scans: Option<&Path>, record: Option<&Path>, out: &Path, report: &P
     assert_eq!(code, std::process::ExitCode::SUCCESS);
 }
 
-fn read_mesh(path: &Path) -> speleo_hal::world::Mesh {
+fn read_mesh(path: &Path) -> speleo_physics::Mesh {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    speleo_hal::world::ply::parse(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    speleo_physics::terrain::ply::parse(&bytes)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 /// A KITTI line: sensor -> map.
@@ -141,7 +142,7 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
     let mount = Isometry3::translation(0.0, 0.0, 0.35);
     let world_from_map = tum(t0) * (kitti(p0) * mount.inverse()).inverse();
     let world =
-        speleo_hal::world::World::build("lava-tube", SEED).unwrap_or_else(|e| panic!("{e}"));
+        speleo_twin::world::World::build("lava-tube", SEED).unwrap_or_else(|e| panic!("{e}"));
     let truth = LidarWorld::new(&world.mesh).unwrap_or_else(|e| panic!("{e}"));
     let ours = read_mesh(&mesh);
     let mut d: Vec<f64> = ours

@@ -11,9 +11,9 @@
 
 use std::time::Instant;
 
-use speleo_hal::sim::lidar::LidarWorld;
-use speleo_hal::world::World;
 use speleo_simulator::{CloudSource, InternalSim, SimulatorParams, Stance};
+use speleo_twin::lidar::LidarWorld;
+use speleo_twin::world::World;
 
 /// The HDL-32E's lasers: -30.67 to +10.67 deg; 0.4 deg between columns.
 const LASERS: usize = 32;

@@ -1,7 +1,7 @@
 //! Settings of the internal simulator.
 
 use speleo_control::{AccelLimits, FollowerParams, SkidSteer};
-use speleo_hal::sim::PhysicsParams;
+use speleo_physics::PhysicsParams;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct SimulatorParams {

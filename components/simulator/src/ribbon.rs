@@ -9,7 +9,7 @@
 //! over the floor behind it, and the legs caught under its edge. Laid on
 //! the seen ground, the strip only fills the holes.
 
-use speleo_hal::world::{Mesh, Surface};
+use speleo_physics::{Mesh, Surface};
 
 use crate::terrain::Terrain;
 

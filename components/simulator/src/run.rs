@@ -3,8 +3,7 @@
 
 use speleo_control::safety::tilt_stop_deg;
 use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS, REVERSE_SPEED_SCALE};
-use speleo_hal::sim::physics::PhysicsRover;
-use speleo_hal::world::Mesh;
+use speleo_physics::{Mesh, PhysicsRover};
 
 use crate::prediction::Prediction;
 use crate::ribbon;
@@ -56,7 +55,7 @@ pub enum Outcome {
     /// its hub within its radius and `overhang_depth_m`.
     Overhang,
     /// The rover fell: sank faster than a drive down a step allows
-    /// (`speleo_hal::sim::physics::FALL_SPEED_MPS`, about half a metre of
+    /// (`speleo_physics::rover::FALL_SPEED_MPS`, about half a metre of
     /// free fall), off a ledge the map shows as a slope or not at all.
     Fell,
 }
@@ -395,7 +394,7 @@ impl InternalSim {
 
     /// The simulated rover's state after the last physics step, once it
     /// has been put down.
-    pub fn rover_state(&self) -> Option<&speleo_hal::sim::BodyState> {
+    pub fn rover_state(&self) -> Option<&speleo_physics::BodyState> {
         self.rover.as_deref().map(PhysicsRover::state)
     }
 

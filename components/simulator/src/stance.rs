@@ -1,6 +1,6 @@
 //! Where the rover stands as a validation begins.
 
-use speleo_hal::sim::quat;
+use speleo_physics::quat;
 
 /// base_link's position and attitude in the map frame when a validation
 /// begins. The attitude matters: a rover standing tilted on a wall's foot

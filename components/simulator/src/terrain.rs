@@ -1,9 +1,9 @@
 //! The simulated world's ground: the keyframe clouds around the plan in a
 //! TSDF, meshed a tile at a time.
 
-use speleo_hal::world::{Mesh, Surface};
 use speleo_mapping::marching_cubes::MeshBuffers;
 use speleo_mapping::tsdf::{TsdfParams, TsdfVolume, Weighting};
+use speleo_physics::{Mesh, Surface};
 
 use crate::SimulatorParams;
 

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{run_to_verdict, step_down, straight_plan};
-use speleo_hal::world::{Mesh, Surface};
+use speleo_physics::{Mesh, Surface};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 
 /// From the origin along x to 4 m, over the edge at 1.5 m, on `ground`.

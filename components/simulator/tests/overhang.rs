@@ -6,8 +6,9 @@
 mod common;
 
 use common::run_to_verdict;
-use speleo_hal::world::{shapes::add_box, Mesh, Surface};
+use speleo_physics::{Mesh, Surface};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
+use speleo_twin::world::shapes::add_box;
 
 /// A roof up to y = 0.5, and a floor 9 m under it beyond.
 fn roof() -> Mesh {

@@ -7,8 +7,9 @@
 mod common;
 
 use common::run_to_verdict;
-use speleo_hal::world::{shapes::add_hexahedron, Mesh, Surface};
+use speleo_physics::{Mesh, Surface};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
+use speleo_twin::world::shapes::add_hexahedron;
 
 /// A 31 degree slope rising along +x from x = 0 to 4 m, on a floor.
 const SLOPE_DEG: f64 = 31.0;

@@ -5,7 +5,7 @@
 //! 25 times the triangles (a load of ~2,700), a step costs several times
 //! as much, and a batch drives fewer.
 
-use speleo_hal::world::{Mesh, Surface};
+use speleo_physics::{Mesh, Surface};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance};
 
 /// Flat ground at z = 0 from x = -1 to 2.5 m and y = -0.8 to 0.8 m, of

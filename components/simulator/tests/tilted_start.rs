@@ -3,7 +3,7 @@
 //! down level on a shelf cut into the slope.
 
 use speleo_control::safety::{tilt_stop_deg, TILT_GROWTH_DEG};
-use speleo_hal::sim::quat;
+use speleo_physics::quat;
 use speleo_simulator::{CloudSource, InternalSim, Outcome, SimulatorParams, Stance};
 
 /// Side slope angle, rad (about 20°): rising toward +y.

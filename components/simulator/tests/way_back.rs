@@ -5,7 +5,7 @@
 mod common;
 
 use common::{run_to_verdict, step_down, straight_plan};
-use speleo_hal::world::Surface;
+use speleo_physics::Surface;
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 
 /// The verdict, the prediction and the physics steps taken.

@@ -10,11 +10,11 @@ mod common;
 
 use common::{scan, sensor_pose, SENSOR_HEIGHT_M};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
-use speleo_hal::sim::lidar::LidarWorld;
-use speleo_hal::sim::noise::Noise;
 use speleo_slam::graph_slam::SlamParams;
 use speleo_slam::registration::degeneracy::{keep_guess_where_unheld, surface_shares};
 use speleo_slam::registration::{align, Alignment, GicpParams, PreparedCloud};
+use speleo_twin::lidar::LidarWorld;
+use speleo_twin::noise::Noise;
 
 /// The share that tells the roof's directions (0.23 at most) from the lava
 /// tube's axis (0.60 at least); `SlamParams::min_surface_share` is 0 (off)
@@ -72,7 +72,7 @@ fn along(p: &Pair, tf: &Isometry3<f64>) -> f64 {
 
 #[test]
 fn on_a_bare_roof_the_guess_is_kept_along_the_plane_and_weighs_nothing() {
-    let garage = speleo_hal::world::garage::generate();
+    let garage = speleo_twin::world::garage::generate();
     let Ok(world) = LidarWorld::new(&garage.mesh) else {
         panic!("the garage is not a ray-castable mesh");
     };
@@ -137,7 +137,7 @@ fn on_a_bare_roof_the_guess_is_kept_along_the_plane_and_weighs_nothing() {
 
 #[test]
 fn along_the_lava_tube_every_direction_is_held() {
-    use speleo_hal::world::lava_tube::{generate, LavaTubeParams};
+    use speleo_twin::world::lava_tube::{generate, LavaTubeParams};
     let tube = generate(1, &LavaTubeParams::default());
     let Ok(world) = LidarWorld::new(&tube.mesh) else {
         panic!("the tube is not a ray-castable mesh");

@@ -9,11 +9,11 @@ mod common;
 
 use common::{scan, sensor_pose};
 use nalgebra::{Isometry3, Translation3};
-use speleo_hal::sim::lidar::LidarWorld;
-use speleo_hal::sim::noise::Noise;
-use speleo_hal::world::lava_tube::{generate, LavaTube, LavaTubeParams};
 use speleo_slam::graph_slam::SlamParams;
 use speleo_slam::registration::{align, GicpParams, PreparedCloud};
+use speleo_twin::lidar::LidarWorld;
+use speleo_twin::noise::Noise;
+use speleo_twin::world::lava_tube::{generate, LavaTube, LavaTubeParams};
 
 /// Along-track errors (m, positive: motion read long) of `pairs`
 /// successive registrations from route point `first` on.

@@ -11,10 +11,10 @@ use super::FaultKind;
 use std::time::{Duration, Instant};
 
 use speleo_hal::replay::ReplayHardware;
-use speleo_hal::sim::drives::SimDrives;
-use speleo_hal::sim::SimHardware;
 use speleo_hal::{CanBus, CanFrame, Device, HalError, Hardware, ImuPort, InputSink, LidarSource};
 use speleo_scheduler::FrameClock;
+use speleo_twin::drives::SimDrives;
+use speleo_twin::SimHardware;
 
 use super::FaultSpec;
 

@@ -87,9 +87,9 @@ impl Task<Bus> for ImuDriver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use speleo_hal::sim::imu::{ImuParams, SimImu};
-    use speleo_hal::sim::BodyState;
     use speleo_hal::ImuPort;
+    use speleo_physics::BodyState;
+    use speleo_twin::imu::{ImuParams, SimImu};
 
     use crate::tasks::test_context as cx;
 

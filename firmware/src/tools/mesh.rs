@@ -132,8 +132,8 @@ pub fn from_scans(
     let mut points = 0u64;
     for (f, pose) in files.iter().zip(&poses) {
         let bytes = std::fs::read(f).map_err(|e| format!("cannot read {}: {e}", f.display()))?;
-        let cloud =
-            speleo_hal::world::ply::parse(&bytes).map_err(|e| format!("{}: {e}", f.display()))?;
+        let cloud = speleo_physics::terrain::ply::parse(&bytes)
+            .map_err(|e| format!("{}: {e}", f.display()))?;
         points += cloud.vertices.len() as u64;
         let world: Vec<[f64; 3]> = cloud
             .vertices

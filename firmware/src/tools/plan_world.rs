@@ -9,8 +9,6 @@ use std::fmt;
 use std::time::Instant;
 
 use serde::Serialize;
-use speleo_hal::sim::lidar::LidarWorld;
-use speleo_hal::world::World;
 use speleo_mapping::mls::{MlsMap, MlsParams};
 use speleo_planner::arastar::Lattice;
 use speleo_planner::mprim;
@@ -18,6 +16,8 @@ use speleo_planner::primitives::{generate, PrimitiveSpec};
 use speleo_planner::sbpl::angle_to_bin;
 use speleo_planner::surface::{SurfaceLattice, SurfaceParams};
 use speleo_traversability::{TravMap, TravParams};
+use speleo_twin::lidar::LidarWorld;
+use speleo_twin::world::World;
 
 use super::plan::{search_timed, Round};
 use super::Error;

@@ -94,8 +94,8 @@ pub fn register(
 /// face uses, so the parser is called directly: a vertex-only file is fine.
 fn read_points(path: &Path) -> Result<Vec<[f64; 3]>, Error> {
     let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let mesh =
-        speleo_hal::world::ply::parse(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mesh = speleo_physics::terrain::ply::parse(&bytes)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(mesh
         .vertices
         .iter()

@@ -11,8 +11,7 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-use speleo_hal::sim::{quat, BodyState};
-use speleo_hal::world::Mesh;
+use speleo_physics::{quat, BodyState, Mesh};
 use speleo_scheduler::histogram::Histogram;
 use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_simulator::{InternalSim, SimulatorParams, Stance, ValidationCase, Verdict};

@@ -410,7 +410,7 @@ mod tests {
                 "{}",
                 s.name
             );
-            assert!(speleo_hal::world::NAMES.contains(&s.world), "{}", s.world);
+            assert!(speleo_twin::world::NAMES.contains(&s.world), "{}", s.world);
         }
     }
 }

@@ -1,5 +1,5 @@
-//! Realistic HDL-32E revolutions for the benchmarks: the twin of
-//! `speleo-hal` (nominal elevations, 32 lasers a firing, a firing every
+//! Realistic HDL-32E revolutions for the benchmarks: the LiDAR twin of
+//! `speleo-twin` (nominal elevations, 32 lasers a firing, a firing every
 //! 46.08 us at 10 Hz: 2,170 firings, up to 69,440 returns, in firing order)
 //! cast in the generated lava tube (seed 1) from poses 1 m apart along its
 //! route, the sensor 0.54 m above the route point and heading for the next
@@ -7,9 +7,9 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use speleo_hal::hdl32e::{Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS};
-use speleo_hal::sim::lidar::LidarWorld;
-use speleo_hal::sim::noise::Noise;
-use speleo_hal::world::lava_tube::{generate, LavaTubeParams};
+use speleo_twin::lidar::LidarWorld;
+use speleo_twin::noise::Noise;
+use speleo_twin::world::lava_tube::{generate, LavaTubeParams};
 
 /// Rotation rate (Hz).
 const RATE_HZ: f64 = 10.0;

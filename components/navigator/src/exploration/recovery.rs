@@ -4,10 +4,10 @@
 
 use speleo_control::StopReason;
 use speleo_exploration::Mode;
-use speleo_hal::sim::quat;
 use speleo_mapping::mls::{ground_near, MlsMap};
 use speleo_messages::attitude::yaw_of;
 use speleo_messages::PlanMsg;
+use speleo_physics::quat;
 use speleo_simulator::Outcome;
 
 use super::Exploration;

@@ -2,8 +2,9 @@
 
 #![allow(dead_code)] // each test file uses its own part
 
-use speleo_hal::world::{shapes::add_box, Mesh, Surface};
+use speleo_physics::{Mesh, Surface};
 use speleo_simulator::{InternalSim, Verdict};
+use speleo_twin::world::shapes::add_box;
 
 /// A floor with its top at `top` up to x = `edge`, and `drop` lower from
 /// there to x = 12, each a metre thick, 6 m wide.

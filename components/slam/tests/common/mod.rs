@@ -2,8 +2,8 @@
 
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use speleo_hal::hdl32e::Calibration;
-use speleo_hal::sim::lidar::LidarWorld;
-use speleo_hal::sim::noise::Noise;
+use speleo_twin::lidar::LidarWorld;
+use speleo_twin::noise::Noise;
 
 /// Base frame at axle height above the floor; the LiDAR 0.35 m above it.
 pub const SENSOR_HEIGHT_M: f64 = 0.19 + 0.35;

@@ -4,7 +4,7 @@
 //! produce one `BodyState` per step; the IMU, the drives' encoders and the
 //! LiDAR read only this, so they behave the same on either model.
 
-use super::quat::{self, Quat};
+use crate::quat::{self, Quat};
 
 /// Wheel order: front left, front right, rear left, rear right (drive nodes 1..=4).
 pub const WHEELS: usize = 4;

@@ -1,22 +1,19 @@
 //! Worlds for the simulated rover: generated lava tubes and a multi-level
 //! garage, flat ground, or any triangle mesh file. Every world is a triangle
 //! mesh (the ground truth rays are cast against), the area of floor a rover
-//! could reach (for coverage figures), and a start pose.
+//! could reach (for coverage figures), and a start pose. The meshes, their
+//! surfaces and their file formats are `speleo_physics::terrain`'s.
 
 pub mod boulder_field;
 pub mod garage;
 pub mod lava_tube;
-pub mod mesh;
 pub mod noise;
-pub mod obj;
-pub mod ply;
 pub mod shapes;
 mod start_pose;
-pub mod stl;
 
 use std::path::Path;
 
-pub use mesh::{CleanStats, Mesh, MeshError, Surface};
+pub use speleo_physics::terrain::{CleanStats, Mesh, MeshError, Surface};
 
 /// Worlds known by name.
 pub const NAMES: [&str; 5] = ["lava-tube", "short-tube", "garage", "boulders", "flat"];
@@ -107,7 +104,7 @@ impl World {
                 })
             }
             path if ["ply", "obj", "stl"]
-                .contains(&crate::extension_of(Path::new(path)).as_str()) =>
+                .contains(&speleo_hal::extension_of(Path::new(path)).as_str()) =>
             {
                 let (mesh, _) = Mesh::load(Path::new(path))?;
                 Ok(Self::from_mesh(path, mesh))

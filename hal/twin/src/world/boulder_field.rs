@@ -3,9 +3,9 @@
 //! sit 12 m apart on the long axis, each with a clear disc around it; the
 //! straight line between them is blocked, so a path must weave.
 
-use super::mesh::{Mesh, Surface};
 use super::noise::uniform;
 use super::shapes::{add_box, add_rock};
+use speleo_physics::terrain::{Mesh, Surface};
 
 pub const SIZE_X: f64 = 16.0;
 pub const SIZE_Y: f64 = 10.0;

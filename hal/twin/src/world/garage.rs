@@ -3,8 +3,8 @@
 //! floor), 3 m apart, joined by 4 m wide ramps through openings in the slabs,
 //! with pillars and perimeter walls.
 
-use super::mesh::{Mesh, Surface};
 use super::shapes::{add_box, add_hexahedron};
+use speleo_physics::terrain::{Mesh, Surface};
 
 pub const LEVELS: usize = 3;
 pub const SIZE_X: f32 = 22.0;

@@ -8,8 +8,8 @@
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use speleo_hal::sim::physics::{PhysicsParams, PhysicsRover};
-use speleo_hal::world::{Mesh, Surface};
+use speleo_physics::rover::{PhysicsParams, PhysicsRover};
+use speleo_physics::terrain::{Mesh, Surface};
 
 /// A plane rising 15 degrees along x, 3 m square, of 5 cm right triangles.
 fn slope() -> Mesh {

@@ -9,12 +9,12 @@
 //! when its commands go stale (the drive's own watchdog) or when it is not in
 //! profile velocity mode.
 
-use super::body::{BodyState, WHEELS};
-use crate::can::CanFrame;
-use crate::canopen::sdo::{Sdo, ABORT_NO_OBJECT, ABORT_READ_ONLY, ABORT_VALUE_RANGE};
-use crate::canopen::{self, classify, Event, NmtCommand, NmtState};
-use crate::cia402::{self, DriveState, Pdo};
-use crate::outbox::Outbox;
+use speleo_hal::can::CanFrame;
+use speleo_hal::canopen::sdo::{Sdo, ABORT_NO_OBJECT, ABORT_READ_ONLY, ABORT_VALUE_RANGE};
+use speleo_hal::canopen::{self, classify, Event, NmtCommand, NmtState};
+use speleo_hal::cia402::{self, DriveState, Pdo};
+use speleo_hal::outbox::Outbox;
+use speleo_physics::body::{BodyState, WHEELS};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct DriveParams {
@@ -263,7 +263,7 @@ impl SimDrives {
             | Sdo::DownloadResponse { index, sub } => Sdo::Abort {
                 index,
                 sub,
-                code: crate::canopen::sdo::ABORT_UNSUPPORTED,
+                code: speleo_hal::canopen::sdo::ABORT_UNSUPPORTED,
             },
         }
     }

@@ -7,9 +7,9 @@
 //! seeded noise. Each station carries a ring of vertices: an ellipse whose
 //! lower part is cut flat into the floor, with radial and floor roughness.
 
-use super::mesh::{Mesh, Surface};
 use super::noise::{noise1, noise2, uniform};
 use super::shapes::add_rock;
+use speleo_physics::terrain::{Mesh, Surface};
 
 mod junction;
 use junction::TubeVolume;

@@ -2,7 +2,7 @@
 //! four wheels, pitched and rolled as that ground slopes, rather than level
 //! with its uphill wheels in the slope.
 
-use crate::world::Mesh;
+use speleo_physics::terrain::Mesh;
 
 /// How far above and below the given ground height a face may lie to count
 /// as the ground there, m (a floor 3 m over or under is another level).

@@ -23,10 +23,10 @@ use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread::JoinHandle;
 
-use super::lidar::LidarWorld;
-use super::quat;
-use crate::hdl32e::LASERS;
-use crate::world::Surface;
+use crate::lidar::LidarWorld;
+use speleo_hal::hdl32e::LASERS;
+use speleo_physics::quat;
+use speleo_physics::terrain::Surface;
 
 /// What a ray met: distance, cosine of the incidence angle and surface.
 pub type RayReturn = Option<(f64, f64, Surface)>;

@@ -6,9 +6,9 @@
 //! the skid factor (skid-steer rovers turn slower than a differential drive
 //! with the same geometric track).
 
-pub use super::body::WHEELS;
-use super::body::{BodyState, GRAVITY};
-use super::quat;
+pub use speleo_physics::body::WHEELS;
+use speleo_physics::body::{BodyState, GRAVITY};
+use speleo_physics::quat;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct RoverParams {

@@ -1,6 +1,6 @@
 //! Closed primitives for building worlds.
 
-use super::mesh::{Mesh, Surface};
+use speleo_physics::terrain::{Mesh, Surface};
 
 /// An axis-aligned box, outward normals.
 pub fn add_box(m: &mut Mesh, lo: [f32; 3], hi: [f32; 3], s: Surface) {

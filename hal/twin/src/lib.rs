@@ -1,35 +1,34 @@
-//! Simulated hardware: a skid-steer rover in a world (a generated lava tube,
-//! a garage, flat ground or a mesh file) with twins of its IMU, motor drives
-//! and HDL-32E that speak the real wire formats.
+//! The rover's hardware twin: a skid-steer rover in a world (a generated
+//! lava tube, a garage, a boulder field, flat ground or a mesh file) with
+//! twins of its IMU, motor drives and HDL-32E that speak the real wire
+//! formats, behind `speleo-hal`'s `Hardware` traits.
 //!
 //! The rover obeys the wheel velocity commands it receives as CiA 402 PDOs;
 //! its IMU emits Xbus MTData2 frames at 100 Hz, its drives answer every SYNC
-//! with their PDOs and the LiDAR streams UDP payloads. The rover is either
-//! the rapier3d physics model (the default) or flat-ground kinematics (fast,
-//! for tests of the software around it). Everything is seeded, physics is
-//! built with enhanced determinism and the twins' trigonometry is `libm`'s
-//! pure-Rust code, so the byte streams repeat on any machine.
+//! with their PDOs and the LiDAR streams UDP payloads, all encoded by
+//! `speleo-hal`'s codecs. The rover is either the rapier3d physics model of
+//! `speleo-physics` (the default) or flat-ground kinematics ([`rover`]:
+//! fast, for tests of the software around it). Everything is seeded, physics
+//! is built with enhanced determinism and the twins' trigonometry is
+//! `libm`'s pure-Rust code, so the byte streams repeat on any machine.
 
-pub mod body;
-pub mod chassis_contacts;
 pub mod drives;
 pub mod imu;
 pub mod lidar;
 pub mod noise;
-pub mod physics;
 pub mod put_down;
-pub mod quat;
 pub mod ray_caster;
 pub mod rover;
+pub mod world;
 
-use crate::can::CanFrame;
-use crate::outbox::Outbox;
-use crate::{CanBus, Device, HalError, Hardware, ImuPort, InputSink, LidarSource};
+use speleo_hal::can::CanFrame;
+use speleo_hal::outbox::Outbox;
+use speleo_hal::{CanBus, Device, HalError, Hardware, ImuPort, InputSink, LidarSource};
+use speleo_physics::rover::{PhysicsRover, START_GAP_M};
+use speleo_physics::{body, quat};
 
-pub use body::BodyState;
-pub use physics::PhysicsParams;
 pub use rover::RoverParams;
-
+pub use speleo_physics::{BodyState, PhysicsParams};
 /// The true state, as recorded on the ground-truth topic.
 pub type GroundTruth = BodyState;
 
@@ -81,11 +80,11 @@ pub type TruthProbe = std::rc::Rc<std::cell::Cell<GroundTruth>>;
 pub struct Strikes {
     /// Times the chassis struck a wall, the ceiling or a boulder's side.
     pub collisions: u64,
-    /// Times it fell (sank faster than [`physics::FALL_SPEED_MPS`]).
+    /// Times it fell (sank faster than [`speleo_physics::rover::FALL_SPEED_MPS`]).
     pub falls: u64,
     /// The worst fall's height, m.
     pub worst_fall_m: f64,
-    /// Whether a fall wrecked it (one from [`physics::WRECK_HEIGHT_M`] or
+    /// Whether a fall wrecked it (one from [`speleo_physics::rover::WRECK_HEIGHT_M`] or
     /// more).
     pub wrecked: bool,
 }
@@ -104,7 +103,7 @@ pub struct SimHardware {
 /// How the rover moves.
 enum Motion {
     Kinematic(rover::Rover),
-    Physics(Box<physics::PhysicsRover>),
+    Physics(Box<PhysicsRover>),
 }
 
 impl Motion {
@@ -147,12 +146,12 @@ impl SimHardware {
                         world.start,
                         pp.wheelbase_m,
                         pp.track_width_m,
-                        pp.wheel_radius_m + physics::START_GAP_M,
+                        pp.wheel_radius_m + START_GAP_M,
                     )
                 } else {
                     (world.start, [0.0; 2])
                 };
-                Motion::Physics(Box::new(physics::PhysicsRover::new_tilted(
+                Motion::Physics(Box::new(PhysicsRover::new_tilted(
                     pp,
                     &world.mesh,
                     start,
@@ -172,7 +171,7 @@ impl SimHardware {
                 let w = std::sync::Arc::new(lidar::LidarWorld::new(&world.mesh)?);
                 LidarTwin::On(Box::new(lidar::SimLidar::new(
                     lp.clone(),
-                    crate::hdl32e::Calibration::nominal(),
+                    speleo_hal::hdl32e::Calibration::nominal(),
                     w,
                     p.seed,
                 )))

@@ -2,10 +2,10 @@
 //! launches its LiDAR rays while the frame's tasks run) delivers exactly
 //! what one that only advances at each frame's start delivers.
 
-use speleo_hal::sim::lidar::LidarParams;
-use speleo_hal::sim::{SimHardware, SimParams};
-use speleo_hal::world::World;
 use speleo_hal::{Device, Hardware, InputSink};
+use speleo_twin::lidar::LidarParams;
+use speleo_twin::world::World;
+use speleo_twin::{SimHardware, SimParams};
 
 /// Every input with its device and time, in order.
 #[derive(Default)]

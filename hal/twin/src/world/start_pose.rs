@@ -69,8 +69,8 @@ pub fn roomy_start(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::mesh::Surface;
     use crate::world::shapes::add_box;
+    use crate::world::Surface;
 
     #[test]
     fn the_start_is_clear_of_a_rock_at_the_floors_centre() {

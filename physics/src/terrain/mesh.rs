@@ -193,7 +193,7 @@ impl Mesh {
             path: path.display().to_string(),
             source,
         })?;
-        let ext = crate::extension_of(path);
+        let ext = extension_of(path);
         let mesh = match ext.as_str() {
             "ply" => super::ply::parse(&bytes),
             "obj" => super::obj::parse(&bytes),
@@ -243,6 +243,15 @@ impl Mesh {
         }
         w.write_all(&buf)
     }
+}
+
+/// A file's extension in lower case ("" when it has none): the format is
+/// chosen by it.
+fn extension_of(path: &Path) -> String {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase()
 }
 
 /// Bounded reservation: a header may claim more than the file holds.

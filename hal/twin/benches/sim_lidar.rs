@@ -8,8 +8,8 @@ use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use speleo_hal::hdl32e::Calibration;
-use speleo_hal::sim::lidar::{LidarParams, LidarWorld, SensorPose, SimLidar};
-use speleo_hal::world::World;
+use speleo_twin::lidar::{LidarParams, LidarWorld, SensorPose, SimLidar};
+use speleo_twin::world::World;
 
 fn bench(c: &mut Criterion) {
     let w = World::build("lava-tube", 1).expect("tube");

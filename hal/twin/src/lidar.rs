@@ -21,13 +21,13 @@ use parry3d::math::Vec3;
 use parry3d::query::Ray;
 use parry3d::shape::{CompositeShapeRef, TriMesh};
 
-use super::noise::Noise;
-use super::quat::{self, Quat};
-use super::ray_caster::{Aim, Head, RayCaster};
-use crate::hdl32e::encode::{Firing, PacketEncoder};
-use crate::hdl32e::{Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS, PACKET_LEN};
-use crate::outbox::Outbox;
-use crate::world::{Mesh, Surface};
+use crate::noise::Noise;
+use crate::ray_caster::{Aim, Head, RayCaster};
+use speleo_hal::hdl32e::encode::{Firing, PacketEncoder};
+use speleo_hal::hdl32e::{Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS, PACKET_LEN};
+use speleo_hal::outbox::Outbox;
+use speleo_physics::quat::{self, Quat};
+use speleo_physics::terrain::{Mesh, Surface};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct LidarParams {
@@ -64,7 +64,7 @@ pub struct LidarWorld {
     mesh: TriMesh,
     /// What the rays are cast against: an eight-way compressed BVH
     /// (obvhs), which walks the rays from inside a cave ~1.4x faster than
-    /// parry's BVH of the same mesh (`cargo bench -p speleo-hal --bench
+    /// parry's BVH of the same mesh (`cargo bench -p speleo-twin --bench
     /// sim_lidar`), and the triangles in its leaf order.
     bvh: CwBvh,
     leaf_triangles: Vec<Triangle>,
@@ -440,10 +440,10 @@ impl SimLidar {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::hdl32e::{DataPacket, Decoder, FrameAssembler};
     use crate::world::World;
+    use speleo_hal::hdl32e::{DataPacket, Decoder, FrameAssembler};
 
-    fn revolution(world: &World, pose: SensorPose) -> Vec<crate::hdl32e::Point> {
+    fn revolution(world: &World, pose: SensorPose) -> Vec<speleo_hal::hdl32e::Point> {
         let lw = Arc::new(LidarWorld::new(&world.mesh).expect("mesh"));
         let mut l = SimLidar::new(LidarParams::default(), Calibration::nominal(), lw, 3);
         let mut asm = FrameAssembler::new(Decoder::new(&Calibration::nominal()), 0.0, 200_000);

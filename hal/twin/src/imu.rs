@@ -8,13 +8,13 @@
 //! may be mounted slightly rotated against base_link (and so against the
 //! LiDAR): that misalignment is the error the SLAM bias state estimates.
 
-use super::body::BodyState;
-use super::noise::Noise;
-use super::quat::{self, Quat};
-use crate::mtdata2::Precision;
-use crate::outbox::Outbox;
-use crate::xbus::{self, XbusDecoder};
-use crate::xsens_config::{OutputConfig, MID_SET_OUTPUT_CONFIGURATION};
+use crate::noise::Noise;
+use speleo_hal::mtdata2::Precision;
+use speleo_hal::outbox::Outbox;
+use speleo_hal::xbus::{self, XbusDecoder};
+use speleo_hal::xsens_config::{OutputConfig, MID_SET_OUTPUT_CONFIGURATION};
+use speleo_physics::body::BodyState;
+use speleo_physics::quat::{self, Quat};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImuParams {
@@ -221,7 +221,7 @@ impl SimImu {
         }
         // Roll and pitch are held by gravity; heading drifts with the
         // integrated z error.
-        self.yaw_drift = super::rover::wrap_angle(self.yaw_drift + (gyro[2] - rate[2]) * dt);
+        self.yaw_drift = crate::rover::wrap_angle(self.yaw_drift + (gyro[2] - rate[2]) * dt);
         let imu_to_world = quat::mul(&s.orientation, &self.mount);
         let q = quat::mul(&quat::from_ypr(self.yaw_drift, 0.0, 0.0), &imu_to_world);
         self.counter = self.counter.wrapping_add(1);
@@ -285,8 +285,8 @@ impl SimImu {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::body::GRAVITY;
-    use crate::xbus::parse_mtdata2;
+    use speleo_hal::xbus::parse_mtdata2;
+    use speleo_physics::body::GRAVITY;
 
     /// Mean acceleration and orientation the twin reports for a rover at
     /// rest on level ground, decoded by the driver's parser.
