@@ -6,6 +6,8 @@
 # toolchain with rustfmt and clippy; everything else is fetched by cargo.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# A clean CI build need not keep incremental state, which only costs disk.
+export CARGO_INCREMENTAL=0
 
 if ! cargo fmt --version >/dev/null 2>&1; then
   rustup component add rustfmt
@@ -22,10 +24,12 @@ echo "== the executive's core without std"
 cargo check -p speleo-scheduler --no-default-features --locked
 echo "== cargo test"
 cargo test --workspace --locked
+# The debug build is not used again; its space goes to the release and fuzz builds.
+cargo clean --profile dev
 echo "== the autonomous mission end to end (release: minutes, not the debug build's hour)"
 cargo test --release -p speleo-tests --test exploration --locked -- --ignored
 echo "== a campaign on a one-node Slurm cluster (installs slurm-wlm and munge)"
-cargo build --release --locked -p speleo-firmware
+cargo build --release --locked -p speleo-cli
 bash ci/slurm-campaign.sh
 echo "== fuzz targets"
 bash ci/fuzz.sh

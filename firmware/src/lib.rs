@@ -1,9 +1,9 @@
-//! The `speleo` flight software: configuration, the schedule table that wires
-//! tasks to mailboxes, the modes (sim, replay, run), the MCAP recorder and the
-//! reports. `main.rs` is only the entry point.
+//! The flight software: configuration, the schedule table that wires tasks
+//! to mailboxes, the modes (sim, replay, run), the MCAP recorder and the
+//! mission's report. The ground tools (`speleo-tools`) and the `speleo`
+//! binary (`speleo-cli`) build on it; it depends on neither.
 
 pub mod bus;
-pub mod campaign;
 pub mod cli;
 pub mod config;
 pub mod exploration_figures;
@@ -12,7 +12,6 @@ pub mod maps_output;
 pub mod mission;
 pub mod modes;
 pub mod planner_figures;
-pub mod plot;
 pub mod record;
 pub mod report;
 pub mod schedule_table;
@@ -20,7 +19,6 @@ pub mod sim_clouds;
 pub mod sim_host;
 pub mod slam_figures;
 pub mod tasks;
-pub mod tools;
+pub mod truth_map;
 pub mod validation_dump;
-pub mod wcet;
 pub mod wiring;

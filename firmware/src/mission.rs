@@ -321,7 +321,7 @@ fn follower(cfg: &Config) -> PurePursuit {
 
 /// The internal simulator: the simulated rover's build, the control
 /// task's follower and limits, `[simulator]`'s world and judgement.
-pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
+pub fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
     let s = &cfg.simulator;
     let c = &cfg.control;
     let r = &cfg.rover;

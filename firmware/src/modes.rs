@@ -1,4 +1,4 @@
-//! The three modes: sim, replay and run. Each prepares its hardware, clock
+//! The three flight modes: sim, replay and run. Each prepares its hardware, clock
 //! and recorder, then hands them to [`Session::drive`].
 
 use std::cell::RefCell;
@@ -16,10 +16,7 @@ use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
 use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
 use speleo_twin::{RoverParams, SimHardware, SimParams, TruthProbe};
 
-use crate::cli::{
-    DecodeCommand, G2oArgs, MeshArgs, Outputs, Pcap2mcapArgs, RegisterArgs, ReplayArgs, RunArgs,
-    SimArgs, ValidateArgs, WorldExportArgs,
-};
+use crate::cli::{Outputs, ReplayArgs, RunArgs, SimArgs};
 use crate::config::{Config, StartSpec};
 use crate::faults::inject::{FaultClock, FaultyHardware};
 use crate::mission::{self, Length, MissionInputs, MissionResult};
@@ -198,7 +195,8 @@ fn frames_for(cfg: &Config, seconds: f64) -> u64 {
     (seconds * 1e6 / cfg.executive.minor_frame_us as f64).round() as u64
 }
 
-fn print_summary(r: &MissionResult) {
+/// The mission's figures on standard output.
+pub fn print_summary(r: &MissionResult) {
     let speed = if r.wall_time_s > 0.0 {
         r.sim_time_s / r.wall_time_s
     } else {
@@ -313,7 +311,16 @@ fn write_report(
     Ok(())
 }
 
+/// `speleo sim`: the mission, its report and trajectory written, its
+/// summary printed.
 pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
+    print_summary(&sim_mission(a, progress)?);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A simulated mission from the command's arguments, its report and
+/// trajectory written: its result, for drawing or judging.
+pub fn sim_mission(a: SimArgs, progress: bool) -> Result<MissionResult, Error> {
     let mut cfg = match &a.config {
         Some(p) => Config::load(p)?,
         None => Config::default(),
@@ -347,29 +354,21 @@ pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
         crate::slam_figures::write_tum(path, rows)
             .map_err(|e| format!("writing {}: {e}", path.display()))?;
     }
-    if let Some(path) = &a.plot {
-        crate::plot::write_plot(path, &plot_data(&result))?;
-    }
-    print_summary(&result);
-    Ok(ExitCode::SUCCESS)
+    Ok(result)
 }
 
 /// A simulated mission as `cfg` describes it (its world, seed and
 /// duration), with the outputs `out` asks for; the maps finished and the
 /// exploration's ground-truth figures filled in.
-pub(crate) fn simulate(
-    cfg: &mut Config,
-    out: &Outputs,
-    progress: bool,
-) -> Result<MissionResult, Error> {
+pub fn simulate(cfg: &mut Config, out: &Outputs, progress: bool) -> Result<MissionResult, Error> {
     cfg.validate()?;
     let mut world = speleo_twin::world::World::build(&cfg.sim.world, cfg.sim.seed)?;
     if let Some(spec) = &cfg.sim.start {
         world.start = match spec {
             StartSpec::Pose([x, y, z, yaw_deg]) => [*x, *y, *z, yaw_deg.to_radians()],
             StartSpec::Waypoint(name) => {
-                let named = crate::tools::plan_world::waypoints(&world);
-                crate::tools::plan_world::pose_of(name, &named)
+                let named = speleo_twin::world::waypoints::waypoints(&world);
+                speleo_twin::world::waypoints::pose_of(name, &named)
                     .map_err(|e| format!("sim.start: {e}"))?
             }
         };
@@ -448,44 +447,6 @@ fn mission_success(
     speleo_campaign::success::judge(&facts, criteria)
 }
 
-/// The explored graph and the tracks, in the world frame when the map
-/// frame's place in it is known (simulation), else in the map frame.
-fn plot_data(r: &MissionResult) -> crate::plot::PlotData {
-    use crate::plot::{PatchShade, PlotData};
-    use speleo_traversability::TravClass;
-    let (origin, heading) = r.world_from_map.unwrap_or(([0.0; 3], 0.0));
-    let (s, c) = heading.sin_cos();
-    let to_world = |p: [f64; 3]| {
-        [
-            origin[0] + c * p[0] - s * p[1],
-            origin[1] + s * p[0] + c * p[1],
-            origin[2] + p[2],
-        ]
-    };
-    let mut d = PlotData::default();
-    if let Some(t) = &r.explored {
-        for n in t.nodes() {
-            let shade = match n.class {
-                TravClass::Traversable => PatchShade::Ground,
-                TravClass::Explorable | TravClass::Frontier => PatchShade::Border,
-                TravClass::Obstacle | TravClass::Unknown => PatchShade::Obstacle,
-            };
-            d.patches.push((to_world(t.position(n)), shade));
-        }
-    }
-    if let Some(slam) = &r.slam {
-        // SLAM puts its keyframes in the world frame when it knows it.
-        d.track = slam.trajectory.iter().map(|k| k.position).collect();
-        d.truth = slam
-            .trajectory
-            .iter()
-            .filter_map(|k| k.truth.map(|t| t.0))
-            .collect();
-    }
-    d.home = r.exploration_home.map(to_world);
-    d
-}
-
 /// The exploration's ground-truth figures: the rover's strikes, and the
 /// fraction of the world's reachable floor that the explored map covers.
 fn exploration_truth(
@@ -503,7 +464,7 @@ fn exploration_truth(
     f.worst_fall_m = Some(strikes.worst_fall_m);
     f.wrecked = Some(strikes.wrecked);
     // The reachable floor is the world's, whatever the rover saw of it.
-    let truth_mls = crate::tools::plan_world::surface_map(world)?;
+    let truth_mls = crate::truth_map::surface_map(world)?;
     // From the start or, where a scanned floor has a hole or a rock right
     // under it, from a ring round it.
     let [x, y, z, _] = world.start;
@@ -649,7 +610,7 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
 }
 
 /// What a replay found.
-pub(crate) struct Replayed {
+pub struct Replayed {
     pub result: MissionResult,
     /// The first output that differs from the recording's.
     pub divergence: Option<String>,
@@ -662,7 +623,7 @@ pub(crate) struct Replayed {
 
 /// Feed a recording's raw inputs through the drivers and tasks with the
 /// recorded configuration, and compare every output with the recording's.
-pub(crate) fn replay_recording(
+pub fn replay_recording(
     log: &std::path::Path,
     out: &Outputs,
     progress: bool,
@@ -713,88 +674,6 @@ pub(crate) fn replay_recording(
     })
 }
 
-/// `speleo mesh`: from PLY scans with KITTI poses, or from a recording's
-/// keyframes (the recording is run through the drivers and SLAM again).
-pub fn mesh(a: MeshArgs, progress: bool) -> Result<ExitCode, Error> {
-    let params = speleo_mapping::tsdf::TsdfParams {
-        voxel_size_m: a.voxel,
-        truncation_voxels: a.trunc,
-        max_blocks: a.max_blocks,
-        ..speleo_mapping::tsdf::TsdfParams::default()
-    };
-    let report = match (&a.scans, &a.poses, &a.record) {
-        (Some(dir), Some(poses), None) => {
-            crate::tools::mesh::from_scans(dir, poses, params, &a.out)?
-        }
-        (None, None, Some(log)) => mesh_recording(log, params, &a.out, progress)?,
-        _ => return Err("give --scans DIR --poses POSES.txt, or --record LOG.mcap".into()),
-    };
-    println!(
-        "{} scans, {} points: {} blocks, {} vertices, {} triangles; integrate {:.3} s, mesh {:.3} s, total {:.3} s{}",
-        report.scans,
-        report.points,
-        report.tsdf_blocks,
-        report.vertices,
-        report.triangles,
-        report.integrate_s,
-        report.mesh_s,
-        report.total_s,
-        if report.tsdf_full { " (the TSDF filled up: raise --max-blocks)" } else { "" }
-    );
-    if let Some(p) = &a.report {
-        report::write_json(p, &report)?;
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-/// Run a recording through the drivers and SLAM (as `replay` does, without
-/// comparing) and mesh its keyframes.
-fn mesh_recording(
-    log: &Path,
-    params: speleo_mapping::tsdf::TsdfParams,
-    out: &Path,
-    progress: bool,
-) -> Result<crate::tools::mesh::MeshReport, Error> {
-    let rec = read::load(log)?;
-    let cfg_text = rec
-        .run
-        .get("config")
-        .ok_or_else(|| format!("{}: the recording holds no configuration", log.display()))?;
-    let mut cfg = Config::from_toml(cfg_text)
-        .map_err(|e| format!("{}: recorded configuration: {e}", log.display()))?;
-    cfg.maps.enabled = true;
-    let Some(last) = rec.last_complete_frame() else {
-        return Err(format!("{}: no complete frame to replay", log.display()).into());
-    };
-    let epoch_ns = rec.epoch_ns();
-    let meta = run_metadata(&cfg, "mesh", epoch_ns);
-    let outputs = Outputs::default();
-    let mut session = Session::open(&outputs, &cfg, meta, epoch_ns, None, true)?;
-    let result = session.replay(&cfg, rec.inputs, last, progress)?;
-    let Some(maps) = &result.maps else {
-        return Err(format!(
-            "{}: SLAM is off in the recorded configuration",
-            log.display()
-        )
-        .into());
-    };
-    if maps.keyframes.ready() == 0 {
-        return Err(format!("{}: SLAM made no keyframe (no LiDAR?)", log.display()).into());
-    }
-    let points: u64 = (0..maps.keyframes.ready())
-        .map(|k| maps.keyframes.cloud(k).len() as u64)
-        .sum();
-    let m = crate::maps_output::mesh_keyframes(params.clone(), maps)?;
-    crate::maps_output::write_mesh(out, &m.mesh)?;
-    Ok(crate::tools::mesh::MeshReport::new(
-        log.display().to_string(),
-        maps.keyframes.ready(),
-        points,
-        &params,
-        &m,
-    ))
-}
-
 pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     let cfg = Config::load(&a.config)?;
     schedule_table::build(&cfg)?;
@@ -838,312 +717,23 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     Ok(ExitCode::SUCCESS)
 }
 
-pub fn pcap2mcap(a: Pcap2mcapArgs) -> Result<ExitCode, Error> {
-    let cfg = match &a.config {
-        Some(p) => Config::load(p)?,
-        None => {
-            // A real capture is looked at revolution by revolution: its
-            // replays record every decoded cloud unless configured otherwise.
-            let mut c = Config::default();
-            c.record.cloud_every = 1;
-            c
-        }
+/// A recording run through the drivers, SLAM and the maps (as `replay`
+/// does, without comparing), for meshing its keyframes.
+pub fn replay_for_maps(log: &Path, progress: bool) -> Result<MissionResult, Error> {
+    let rec = read::load(log)?;
+    let cfg_text = rec
+        .run
+        .get("config")
+        .ok_or_else(|| format!("{}: the recording holds no configuration", log.display()))?;
+    let mut cfg = Config::from_toml(cfg_text)
+        .map_err(|e| format!("{}: recorded configuration: {e}", log.display()))?;
+    cfg.maps.enabled = true;
+    let Some(last) = rec.last_complete_frame() else {
+        return Err(format!("{}: no complete frame to replay", log.display()).into());
     };
-    let s = crate::tools::pcap2mcap::run(&a.capture, &a.out, &cfg)?;
-    println!(
-        "{}: {} data packets, {} position packets over {} frames ({} other datagrams left out)",
-        a.out.display(),
-        s.data_packets,
-        s.position_packets,
-        s.frames,
-        s.other
-    );
-    Ok(ExitCode::SUCCESS)
-}
-
-pub fn decode(d: DecodeCommand) -> Result<ExitCode, Error> {
-    use crate::tools::{decode_can, decode_hdl32e, decode_xbus};
-    use speleo_hal::hdl32e::Interpolation;
-    let stdout = std::io::stdout();
-    let mut out = std::io::BufWriter::new(stdout.lock());
-    match d {
-        DecodeCommand::Hdl32e(a) => {
-            let interpolation = match a.interpolation.as_str() {
-                "continuous" => Interpolation::Continuous,
-                "veloview" => Interpolation::VeloView,
-                "velodyne-decoder" => Interpolation::FixedPairs,
-                other => {
-                    return Err(format!(
-                        "--interpolation {other}: use continuous, veloview or velodyne-decoder"
-                    )
-                    .into())
-                }
-            };
-            decode_hdl32e::run(
-                &a.capture,
-                &decode_hdl32e::Options {
-                    calib: a.calib.as_deref(),
-                    csv: a.csv.as_deref(),
-                    frame: a.frame,
-                    interpolation,
-                    cut_angle_deg: a.cut_angle,
-                },
-                &mut out,
-            )?
-        }
-        DecodeCommand::Xbus(a) => decode_xbus::run(&a.file, a.json, &mut out)?,
-        DecodeCommand::Can(a) => decode_can::run(&a.file, &mut out)?,
-    }
-    std::io::Write::flush(&mut out)?;
-    Ok(ExitCode::SUCCESS)
-}
-
-pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
-    let w = speleo_twin::world::World::build(&a.world, a.seed)?;
-    let f = std::fs::File::create(&a.out)
-        .map_err(|e| format!("cannot create {}: {e}", a.out.display()))?;
-    let mut out = std::io::BufWriter::new(f);
-    w.mesh.write_ply(&mut out)?;
-    std::io::Write::flush(&mut out)?;
-    let (lo, hi) = w.mesh.bounds();
-    println!(
-        "{}: {} triangles, {} vertices, bounds ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) m, \
-         reachable floor {:.0} m2, start ({:.2}, {:.2}, {:.2}) heading {:.1} deg",
-        a.out.display(),
-        w.mesh.triangle_count(),
-        w.mesh.vertices.len(),
-        lo[0],
-        lo[1],
-        lo[2],
-        hi[0],
-        hi[1],
-        hi[2],
-        w.floor_area_m2,
-        w.start[0],
-        w.start[1],
-        w.start[2],
-        w.start[3].to_degrees()
-    );
-    Ok(ExitCode::SUCCESS)
-}
-
-fn as_writer(w: &mut std::io::BufWriter<std::fs::File>) -> &mut dyn std::io::Write {
-    w
-}
-
-pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
-    use crate::tools::validate as tv;
-    let cfg = match &a.config {
-        Some(p) => Config::load(p)?,
-        None => Config::default(),
-    };
-    cfg.validate()?;
-    let params = crate::mission::simulator_params(&cfg);
-    let case = tv::read_case(&a.case)?;
-    let create = |p: &Path| {
-        std::fs::File::create(p)
-            .map(std::io::BufWriter::new)
-            .map_err(|e| format!("cannot create {}: {e}", p.display()))
-    };
-    if let Some(p) = &a.plan {
-        let mut w = create(p)?;
-        tv::write_plan(&case.plan, &mut w)?;
-        std::io::Write::flush(&mut w)?;
-    }
-    let mut track = a.track.as_deref().map(create).transpose()?;
-    let mut mesh = a.mesh.as_deref().map(create).transpose()?;
-    let r = tv::replay(
-        &case,
-        params.clone(),
-        track.as_mut().map(as_writer),
-        mesh.as_mut().map(as_writer),
-    )?;
-    for w in [track.as_mut(), mesh.as_mut()].into_iter().flatten() {
-        std::io::Write::flush(w)?;
-    }
-    let length: f64 = case
-        .plan
-        .windows(2)
-        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
-        .sum();
-    let [x, y, z, yaw] = case.start.xyz_yaw();
-    println!(
-        "case: at {:.1} s from ({x:.2}, {y:.2}, {z:.2}) heading {:.1} deg (pitch {:.1}, roll {:.1}), \
-         plan {} poses {length:.2} m{}, {} keyframes, {} points read",
-        case.began_ns as f64 * 1e-9,
-        yaw.to_degrees(),
-        case.start.pitch.to_degrees(),
-        case.start.roll.to_degrees(),
-        case.plan.len(),
-        if case.way_back { " and back" } else { "" },
-        case.keyframes.len(),
-        case.points()
-    );
-    let show = |v: &speleo_simulator::Verdict| {
-        format!(
-            "{:?} after {:.2} s driving, {:.2} m from the goal",
-            v.outcome, v.drive_s, v.goal_error_m
-        )
-    };
-    let show_drive = |label: &str, d: &tv::Drive| {
-        let [tx, ty, tz] = d.max_tilt_at;
-        println!(
-            "{label}: {} ({} physics steps, {} triangles, {:.0} ms; a step {:.0} us of CPU median, {:.0} p99, {:.0} max); most tilt {:.1} deg at ({tx:.2}, {ty:.2}, {tz:.2})",
-            show(&d.verdict),
-            d.physics_steps,
-            d.triangles,
-            d.wall_ms,
-            d.step_us[0],
-            d.step_us[1],
-            d.step_us[2],
-            d.max_tilt_deg
-        );
-    };
-    println!(
-        "on board: {}",
-        case.verdict
-            .as_ref()
-            .map_or("no verdict recorded".into(), show)
-    );
-    show_drive("replayed", &r);
-    if let Some(name) = &a.world {
-        let truth_path = a
-            .case
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join(crate::validation_dump::TRUTH_FILE);
-        let truth = std::fs::read_to_string(&truth_path).map_err(|e| {
-            format!(
-                "--world needs the true track the simulation wrote beside the cases, {}: {e}",
-                truth_path.display()
-            )
-        })?;
-        let (start, plan, err) = tv::in_world(&case, &truth)?;
-        let world = speleo_twin::world::World::build(name, a.seed)?;
-        let ground = tv::crop(&world.mesh, start.position, &plan, params.margin_m);
-        let mut wt = a.world_track.as_deref().map(create).transpose()?;
-        let t = tv::drive_on(
-            ground,
-            start,
-            case.way_back,
-            &plan,
-            params,
-            wt.as_mut().map(as_writer),
-        )?;
-        if let Some(w) = wt.as_mut() {
-            std::io::Write::flush(w)?;
-        }
-        println!(
-            "SLAM's error then: ({:.2}, {:.2}, {:.2}) m, {:.1} deg; in the world from ({:.2}, {:.2}, {:.2}), pitch {:.1} deg, roll {:.1} deg",
-            err[0],
-            err[1],
-            err[2],
-            err[3],
-            start.position[0],
-            start.position[1],
-            start.position[2],
-            start.pitch.to_degrees(),
-            start.roll.to_degrees()
-        );
-        show_drive("true world", &t);
-    }
-    if tv::same_verdict(&case, &r.verdict) {
-        println!("same verdict as on board");
-        Ok(ExitCode::SUCCESS)
-    } else {
-        println!("the verdict differs from the mission's");
-        Ok(ExitCode::from(1))
-    }
-}
-
-pub fn g2o(a: G2oArgs) -> Result<ExitCode, Error> {
-    let r = crate::tools::g2o::run(&a.file, &a.init, a.max_iterations, a.out.as_deref())?;
-    println!("{r}");
-    if let Some(path) = &a.report {
-        report::write_json(path, &r)?;
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-pub fn plan(a: crate::cli::PlanArgs) -> Result<ExitCode, Error> {
-    let planned = if let Some(world) = &a.world {
-        let (Some(start), Some(goal)) = (&a.start, &a.goal) else {
-            return Err("--world needs --start and --goal".into());
-        };
-        let r = crate::tools::plan_world::plan_world(&crate::tools::plan_world::WorldPlanArgs {
-            world,
-            seed: a.seed,
-            start,
-            goal,
-            mprim: a.mprim.as_deref(),
-            eps: a.eps,
-            eps_step: a.eps_step,
-            quantum: a.quantum,
-        })?;
-        println!("{r}");
-        if let Some(path) = &a.report {
-            report::write_json(path, &r)?;
-        }
-        r.cost_ms.is_some()
-    } else {
-        let r = crate::tools::plan::plan_sbpl(&a)?;
-        println!("{r}");
-        if let Some(path) = &a.report {
-            report::write_json(path, &r)?;
-        }
-        r.cost.is_some()
-    };
-    Ok(if planned {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    })
-}
-
-pub fn world_waypoints(a: crate::cli::WorldWaypointsArgs) -> Result<ExitCode, Error> {
-    let w = speleo_twin::world::World::build(&a.world, a.seed)?;
-    for (name, p) in crate::tools::plan_world::waypoints(&w) {
-        println!(
-            "{name:10} {:8.2} {:8.2} {:7.2} {:7.1}",
-            p[0],
-            p[1],
-            p[2],
-            p[3].to_degrees()
-        );
-    }
-    Ok(ExitCode::SUCCESS)
-}
-
-pub fn primitives(a: crate::cli::PrimitivesArgs) -> Result<ExitCode, Error> {
-    use speleo_planner::primitives::{generate, to_mprim_text, PrimitiveSpec};
-    let ok = |v: f64| v > 0.0 && v.is_finite();
-    if !ok(a.resolution) || !ok(a.min_turn_radius) || !(1..=1024).contains(&a.angles) {
-        return Err(
-            "--resolution and --min-turn-radius must be positive, --angles 1..=1024".into(),
-        );
-    }
-    let f = generate(&PrimitiveSpec {
-        resolution_m: a.resolution,
-        angles: a.angles,
-        min_turn_radius_m: a.min_turn_radius,
-        ..PrimitiveSpec::default()
-    });
-    std::fs::write(&a.out, to_mprim_text(&f))
-        .map_err(|e| format!("cannot write {}: {e}", a.out.display()))?;
-    println!(
-        "{} primitives ({} headings) written to {}",
-        f.primitives.len(),
-        f.angles,
-        a.out.display()
-    );
-    Ok(ExitCode::SUCCESS)
-}
-
-pub fn register(a: RegisterArgs) -> Result<ExitCode, Error> {
-    let r = crate::tools::register::register(&a.source, &a.target, a.init.as_deref(), a.voxel)?;
-    println!("{r}");
-    if let Some(path) = &a.report {
-        report::write_json(path, &r)?;
-    }
-    Ok(ExitCode::SUCCESS)
+    let epoch_ns = rec.epoch_ns();
+    let meta = run_metadata(&cfg, "mesh", epoch_ns);
+    let outputs = Outputs::default();
+    let mut session = Session::open(&outputs, &cfg, meta, epoch_ns, None, true)?;
+    session.replay(&cfg, rec.inputs, last, progress)
 }

@@ -43,7 +43,6 @@ pub fn sim_with_trajectory(
             config: config.map(Path::to_path_buf),
             route: true,
             trajectory: trajectory.map(Path::to_path_buf),
-            plot: None,
             faults: Vec::new(),
             dump_validations: None,
             out: Outputs {

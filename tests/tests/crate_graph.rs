@@ -120,6 +120,27 @@ fn no_component_and_no_message_depends_on_firmware() {
     assert_never(&g, "speleo-messages", &["speleo-firmware"]);
 }
 
+#[test]
+fn flight_code_does_not_depend_on_the_ground_tools() {
+    // The tools build on the flight software, never the reverse: the
+    // binary that flies is the one whose modes the tools drive.
+    let g = graph();
+    let flight = [
+        "speleo-firmware",
+        "speleo-messages",
+        "speleo-hal",
+        "speleo-scheduler",
+    ];
+    let components = crates_under("components");
+    for c in flight
+        .iter()
+        .copied()
+        .chain(components.iter().map(String::as_str))
+    {
+        assert_never(&g, c, &["speleo-tools", "speleo-cli"]);
+    }
+}
+
 /// The simulation's heavy crates: rigid-body physics and collision
 /// (rapier3d, parry3d) and the LiDAR twin's ray casting (obvhs, glam).
 const SIMULATION_CRATES: [&str; 4] = ["rapier3d", "parry3d", "obvhs", "glam"];
@@ -156,10 +177,13 @@ fn the_rules_are_checked_on_a_graph_that_has_the_crates() {
         "speleo-physics",
         "speleo-twin",
         "speleo-simulator",
+        "speleo-tools",
+        "speleo-cli",
     ] {
         assert!(g.contains_key(c), "{c} is not in the graph");
     }
     assert!(reach(&g, "speleo-firmware").contains("speleo-messages"));
+    assert!(reach(&g, "speleo-cli").contains("speleo-tools"));
     // The forbidden crates are in the graph under these names: the twin
     // reaches them all, and the HAL whose codecs it encodes with.
     let twin = reach(&g, "speleo-twin");

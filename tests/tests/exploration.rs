@@ -19,7 +19,7 @@ fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> s
     let config = dir.path().join("mission.toml");
     let report = dir.path().join("r.json");
     std::fs::write(&config, toml).unwrap_or_else(|e| panic!("{e}"));
-    modes::sim(
+    let r = modes::sim_mission(
         SimArgs {
             world: Some(world.into()),
             start: None,
@@ -29,7 +29,6 @@ fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> s
             config: Some(config),
             route: false,
             trajectory: None,
-            plot,
             faults: Vec::new(),
             dump_validations: None,
             out: Outputs {
@@ -40,6 +39,10 @@ fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> s
         false,
     )
     .unwrap_or_else(|e| panic!("sim failed: {e}"));
+    if let Some(path) = &plot {
+        speleo_tools::plot::write_plot(path, &speleo_tools::plot::of_mission(&r))
+            .unwrap_or_else(|e| panic!("plot: {e}"));
+    }
     let text = std::fs::read_to_string(&report).unwrap_or_else(|e| panic!("{e}"));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}"))
 }

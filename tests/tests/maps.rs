@@ -7,16 +7,17 @@
 use std::path::Path;
 
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
-use speleo_firmware::cli::{MeshArgs, Outputs};
-use speleo_firmware::modes;
+use speleo_firmware::cli::Outputs;
 use speleo_tests::{read_json, Scratch};
+use speleo_tools::args::MeshArgs;
+use speleo_tools::commands::mesh;
 use speleo_twin::lidar::LidarWorld;
 
 const SEED: u64 = 1;
 const SECONDS: f64 = 20.0;
 
 fn mesh_tool(scans: Option<&Path>, record: Option<&Path>, out: &Path, report: &Path) {
-    let code = modes::mesh(
+    let code = mesh::mesh(
         MeshArgs {
             scans: scans.map(Path::to_path_buf),
             poses: scans.map(|d| d.join("poses.txt")),
@@ -90,7 +91,6 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
             config: Some(config.clone()),
             route: true,
             trajectory: Some(trajectory.clone()),
-            plot: None,
             faults: Vec::new(),
             dump_validations: None,
             out: Outputs {
@@ -194,7 +194,7 @@ fn speleo_mesh_refuses_bad_input_with_a_clear_error() {
     let dir = s.path("scans");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     let run = |scans: &Path| {
-        modes::mesh(
+        mesh::mesh(
             MeshArgs {
                 scans: Some(scans.to_path_buf()),
                 poses: Some(scans.join("poses.txt")),

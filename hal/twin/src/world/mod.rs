@@ -10,6 +10,7 @@ pub mod lava_tube;
 pub mod noise;
 pub mod shapes;
 mod start_pose;
+pub mod waypoints;
 
 use std::path::Path;
 

@@ -9,7 +9,7 @@ use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vect
 use serde::Serialize;
 use speleo_slam::registration::{align, GicpParams, PreparedCloud};
 
-use super::Error;
+use crate::Error;
 
 /// What `register` found, for `--json` or a table.
 #[derive(Clone, Debug, Serialize)]

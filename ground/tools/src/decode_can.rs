@@ -8,7 +8,7 @@ use speleo_hal::canopen::sdo::{abort_text, Sdo};
 use speleo_hal::canopen::{classify, Event};
 use speleo_hal::cia402::{DriveState, Pdo};
 
-use super::Error;
+use crate::Error;
 
 fn object(index: u16) -> &'static str {
     match index {

@@ -13,7 +13,7 @@ use std::fmt::Write;
 use speleo_scheduler::histogram::Histogram;
 
 use super::ScenarioReport;
-use crate::config::{PlannerStepUnits, MAX_STEP_UNITS, STEP_PHASES};
+use speleo_firmware::config::{PlannerStepUnits, MAX_STEP_UNITS, STEP_PHASES};
 
 /// Share of the window the calibrated steps fill at their p99.9.
 const FILL: f64 = 0.9;
@@ -141,8 +141,8 @@ impl PlannerCalibration {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Config;
-    use crate::planner_figures::StepTimes;
+    use speleo_firmware::config::Config;
+    use speleo_firmware::planner_figures::StepTimes;
 
     /// A phase's steps: how many, at what time, how many of them slow and
     /// how slow, and their units.

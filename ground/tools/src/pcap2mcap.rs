@@ -10,11 +10,11 @@ use std::path::Path;
 use speleo_hal::hdl32e::{DATA_PORT, POSITION_PORT};
 use speleo_hal::pcap::read_udp;
 
-use super::Error;
-use crate::config::Config;
-use crate::mission::cloud_message_capacity;
-use crate::record::writer::{self, WriterOptions};
-use crate::record::{RecorderTap, Topic};
+use crate::Error;
+use speleo_firmware::config::Config;
+use speleo_firmware::mission::cloud_message_capacity;
+use speleo_firmware::record::writer::{self, WriterOptions};
+use speleo_firmware::record::{RecorderTap, Topic};
 
 pub struct ImportSummary {
     pub data_packets: u64,

@@ -8,7 +8,10 @@
 use std::io::BufWriter;
 use std::path::Path;
 
-type Error = Box<dyn std::error::Error>;
+use speleo_firmware::mission::MissionResult;
+use speleo_traversability::TravClass;
+
+use crate::Error;
 
 /// What a map patch is, for its colour.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,6 +160,42 @@ pub fn write_plot(path: &Path, d: &PlotData) -> Result<(), Error> {
     w.write_image_data(&c.rgb)?;
     w.finish()?;
     Ok(())
+}
+
+/// The explored graph and the tracks, in the world frame when the map
+/// frame's place in it is known (simulation), else in the map frame.
+pub fn of_mission(r: &MissionResult) -> PlotData {
+    let (origin, heading) = r.world_from_map.unwrap_or(([0.0; 3], 0.0));
+    let (s, c) = heading.sin_cos();
+    let to_world = |p: [f64; 3]| {
+        [
+            origin[0] + c * p[0] - s * p[1],
+            origin[1] + s * p[0] + c * p[1],
+            origin[2] + p[2],
+        ]
+    };
+    let mut d = PlotData::default();
+    if let Some(t) = &r.explored {
+        for n in t.nodes() {
+            let shade = match n.class {
+                TravClass::Traversable => PatchShade::Ground,
+                TravClass::Explorable | TravClass::Frontier => PatchShade::Border,
+                TravClass::Obstacle | TravClass::Unknown => PatchShade::Obstacle,
+            };
+            d.patches.push((to_world(t.position(n)), shade));
+        }
+    }
+    if let Some(slam) = &r.slam {
+        // SLAM puts its keyframes in the world frame when it knows it.
+        d.track = slam.trajectory.iter().map(|k| k.position).collect();
+        d.truth = slam
+            .trajectory
+            .iter()
+            .filter_map(|k| k.truth.map(|t| t.0))
+            .collect();
+    }
+    d.home = r.exploration_home.map(to_world);
+    d
 }
 
 #[cfg(test)]

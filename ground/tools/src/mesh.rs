@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use speleo_mapping::tsdf::TsdfParams;
 
-use super::Error;
-use crate::maps_output::{mesh_scans, write_mesh, MeshResult};
+use crate::Error;
+use speleo_firmware::maps_output::{mesh_scans, write_mesh, MeshResult};
 
 /// What `--report` writes.
 #[derive(Serialize, Debug, Default)]

@@ -10,7 +10,7 @@ use speleo_hal::hdl32e::{
 };
 use speleo_hal::pcap::read_udp;
 
-use super::Error;
+use crate::Error;
 
 pub struct Options<'a> {
     pub calib: Option<&'a Path>,

@@ -9,166 +9,18 @@ use std::fmt;
 use std::time::Instant;
 
 use serde::Serialize;
-use speleo_mapping::mls::{MlsMap, MlsParams};
+use speleo_firmware::truth_map::surface_map;
 use speleo_planner::arastar::Lattice;
 use speleo_planner::mprim;
 use speleo_planner::primitives::{generate, PrimitiveSpec};
 use speleo_planner::sbpl::angle_to_bin;
 use speleo_planner::surface::{SurfaceLattice, SurfaceParams};
 use speleo_traversability::{TravMap, TravParams};
-use speleo_twin::lidar::LidarWorld;
+use speleo_twin::world::waypoints::{pose_of, waypoints};
 use speleo_twin::world::World;
 
-use super::plan::{search_timed, Round};
-use super::Error;
-
-/// Spacing of the points sampled on the mesh, m.
-const SAMPLE_M: f64 = 0.05;
-
-/// Named poses of a world: x, y, ground z, yaw.
-pub fn waypoints(w: &World) -> Vec<(String, [f64; 4])> {
-    let mut out = vec![("start".to_string(), w.start)];
-    out.extend(w.named.iter().cloned());
-    let r = &w.route;
-    if r.len() < 2 {
-        return out;
-    }
-    let yaw_at = |i: usize| {
-        let (a, b) = if i + 1 < r.len() {
-            (r[i], r[i + 1])
-        } else {
-            (r[i - 1], r[i])
-        };
-        (b[1] - a[1]).atan2(b[0] - a[0])
-    };
-    let pose = |i: usize| [r[i][0], r[i][1], r[i][2], yaw_at(i)];
-    out.push(("entrance".into(), pose(0)));
-    // Every 10 m along the route.
-    let mut along = 0.0;
-    let mut next = 10.0;
-    for i in 1..r.len() {
-        along += ((r[i][0] - r[i - 1][0]).powi(2)
-            + (r[i][1] - r[i - 1][1]).powi(2)
-            + (r[i][2] - r[i - 1][2]).powi(2))
-        .sqrt();
-        if along >= next {
-            out.push((format!("m{}", next as u32), pose(i)));
-            next += 10.0;
-        }
-    }
-    // A level wherever the route settles 1.5 m above or below the last
-    // one, over or under another floor (a slope down a cave is no level).
-    let stacked = |i: usize| floor_over_or_under(w, r[i]);
-    let mut level_z = r[0][2];
-    let mut levels = vec![("level0".to_string(), pose(0))];
-    for i in 1..r.len() - 1 {
-        let flat = (r[i + 1][2] - r[i][2]).abs() < 0.02;
-        if flat && (r[i][2] - level_z).abs() > 1.5 && stacked(i) {
-            level_z = r[i][2];
-            levels.push((format!("level{}", levels.len()), pose(i)));
-        }
-    }
-    if levels.len() > 1 {
-        out.extend(levels);
-    }
-    out
-}
-
-/// Whether the world has a floor (a face within 20 degrees of level,
-/// facing up) more than 1.5 m above or below `p`.
-fn floor_over_or_under(w: &World, p: [f64; 3]) -> bool {
-    let m = &w.mesh;
-    (0..m.triangles.len()).any(|t| {
-        let (_, n) = m.triangle_geometry(t);
-        if n[2] < 20f64.to_radians().cos() {
-            return false;
-        }
-        let v = m.triangles[t].map(|i| m.vertices[i as usize].map(f64::from));
-        let inside = {
-            // Same side of all three edges.
-            let side = |a: [f64; 3], b: [f64; 3]| {
-                (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
-            };
-            let s = [side(v[0], v[1]), side(v[1], v[2]), side(v[2], v[0])];
-            s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0)
-        };
-        inside && ((v[0][2] + v[1][2] + v[2][2]) / 3.0 - p[2]).abs() > 1.5
-    })
-}
-
-/// A pose by name, or `x,y,z,yaw` (metres, degrees).
-pub fn pose_of(spec: &str, named: &[(String, [f64; 4])]) -> Result<[f64; 4], String> {
-    if let Some((_, p)) = named.iter().find(|(n, _)| n == spec) {
-        return Ok(*p);
-    }
-    let v: Vec<f64> = spec
-        .split(',')
-        .map(|t| t.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| {
-            let names: Vec<&str> = named.iter().map(|(n, _)| n.as_str()).collect();
-            format!(
-                "\"{spec}\": not x,y,z,yaw nor a waypoint ({})",
-                names.join(", ")
-            )
-        })?;
-    match v[..] {
-        [x, y, z, yaw] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z, yaw.to_radians()]),
-        _ => Err(format!(
-            "\"{spec}\": a pose is x,y,z,yaw (four finite numbers)"
-        )),
-    }
-}
-
-/// The mesh's surface as a multi-level surface map: every point of a face
-/// that a sensor could see, sampled on a barycentric grid of `SAMPLE_M`.
-/// A point is hidden when the ray along its face's normal, from just in
-/// front of it, meets the back of a face first: it lies inside a solid
-/// (the buried foot of a ramp, the part of a slab's underside inside
-/// another slab). Levels split
-/// at 0.2 m rather than the sensor maps' 0.3 m, so that a 0.25 m slab
-/// stays a floor over its own underside instead of becoming a wall.
-pub fn surface_map(w: &World) -> Result<MlsMap, Error> {
-    let mut mls = MlsMap::new(MlsParams {
-        max_cells: 1 << 20,
-        max_patches_per_cell: 8,
-        gap_m: 0.2,
-        vertical_threshold_m: 0.15,
-        ..MlsParams::default()
-    })?;
-    let m = &w.mesh;
-    let rays = LidarWorld::new(m)?;
-    let mut pts = Vec::with_capacity(1 << 16);
-    for (k, t) in m.triangles.iter().enumerate() {
-        let [a, b, c] = t.map(|i| m.vertices[i as usize].map(f64::from));
-        let (_, n) = m.triangle_geometry(k);
-        let hidden = |p: [f64; 3]| {
-            let front = [0, 1, 2].map(|i| p[i] + 0.02 * n[i]);
-            rays.cast_signed(front, n, 1000.0)
-                .is_some_and(|(_, facing)| facing > 0.0)
-        };
-        let len = |p: [f64; 3], q: [f64; 3]| {
-            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
-        };
-        let longest = len(a, b).max(len(b, c)).max(len(c, a));
-        let steps = ((longest / SAMPLE_M).ceil() as usize).clamp(1, 4096);
-        for i in 0..=steps {
-            for j in 0..=steps - i {
-                let (u, v) = (i as f64 / steps as f64, j as f64 / steps as f64);
-                let p = [0, 1, 2].map(|k| a[k] + u * (b[k] - a[k]) + v * (c[k] - a[k]));
-                if !hidden(p) {
-                    pts.push(p);
-                }
-            }
-        }
-        if pts.len() > 1 << 16 {
-            mls.insert_points(&pts);
-            pts.clear();
-        }
-    }
-    mls.insert_points(&pts);
-    Ok(mls)
-}
+use crate::plan::{search_timed, Round};
+use crate::Error;
 
 #[derive(Serialize, Debug)]
 pub struct WorldPlanReport {
@@ -361,31 +213,4 @@ pub fn plan_world(a: &WorldPlanArgs<'_>) -> Result<WorldPlanReport, Error> {
         path,
         rounds,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_garage_has_a_waypoint_per_level_and_poses_parse() {
-        let w = World::build("garage", 1).unwrap_or_else(|e| panic!("{e}"));
-        let named = waypoints(&w);
-        let z = |n: &str| pose_of(n, &named).map(|p| p[2]).unwrap_or(f64::NAN);
-        assert_eq!((z("level0"), z("level1"), z("level2")), (0.0, 3.0, 6.0));
-        assert!(pose_of("level3", &named).is_err_and(|e| e.contains("level2")));
-        let p = pose_of("1, 2, 3, 90", &named).unwrap_or_default();
-        assert_eq!(p[..3], [1.0, 2.0, 3.0]);
-        assert!((p[3] - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
-        assert!(pose_of("1,2,3", &named).is_err_and(|e| e.contains("four")));
-        assert!(pose_of("1,2,nan,0", &named).is_err());
-    }
-
-    #[test]
-    fn a_cave_sloping_down_has_no_levels() {
-        let w = World::build("lava-tube", 1).unwrap_or_else(|e| panic!("{e}"));
-        let named = waypoints(&w);
-        assert!(named.iter().all(|(n, _)| !n.starts_with("level")));
-        assert!(named.iter().any(|(n, _)| n == "m200"));
-    }
 }

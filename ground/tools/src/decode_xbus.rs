@@ -8,7 +8,7 @@ use speleo_hal::mtdata2::{items, Item};
 use speleo_hal::xbus::{self, XbusDecoder};
 use speleo_hal::xsens_config;
 
-use super::Error;
+use crate::Error;
 
 fn mid_name(mid: u8) -> &'static str {
     match mid {

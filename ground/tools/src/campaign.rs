@@ -9,8 +9,8 @@ use speleo_campaign::matrix::{Catalog, Matrix};
 use speleo_campaign::runner::{self, Program};
 use speleo_campaign::summary;
 
-use crate::cli::{CampaignCommand, CampaignPlanArgs, CampaignReportArgs, CampaignRunArgs};
-use crate::config::Config;
+use crate::args::{CampaignCommand, CampaignPlanArgs, CampaignReportArgs, CampaignRunArgs};
+use speleo_firmware::config::Config;
 
 type Error = Box<dyn std::error::Error>;
 
@@ -20,7 +20,7 @@ struct ThisBinary;
 impl Catalog for ThisBinary {
     fn waypoints(&self, world: &str, seed: u64) -> Result<Vec<String>, String> {
         let w = speleo_twin::world::World::build(world, seed).map_err(|e| e.to_string())?;
-        Ok(crate::tools::plan_world::waypoints(&w)
+        Ok(speleo_twin::world::waypoints::waypoints(&w)
             .into_iter()
             .map(|(n, _)| n)
             .collect())
@@ -180,7 +180,7 @@ fn report(a: CampaignReportArgs) -> Result<ExitCode, Error> {
     let md = summary::markdown(&s);
     print!("{md}");
     if let Some(p) = &a.json {
-        crate::report::write_json(p, &s)?;
+        speleo_firmware::report::write_json(p, &s)?;
     }
     if let Some(p) = &a.markdown {
         std::fs::write(p, &md).map_err(|e| format!("cannot write {}: {e}", p.display()))?;

@@ -16,7 +16,7 @@ use speleo_scheduler::histogram::Histogram;
 use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_simulator::{InternalSim, SimulatorParams, Stance, ValidationCase, Verdict};
 
-use super::Error;
+use crate::Error;
 
 /// What one drive to a verdict found.
 pub struct Drive {

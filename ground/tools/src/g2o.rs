@@ -7,7 +7,7 @@ use serde::Serialize;
 use speleo_slam::batch::{optimize, Init};
 use speleo_slam::g2o::{Dim, G2o};
 
-use super::Error;
+use crate::Error;
 
 /// What `--report` writes.
 #[derive(Serialize, Debug)]

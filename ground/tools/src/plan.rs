@@ -10,8 +10,8 @@ use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress};
 use speleo_planner::mprim;
 use speleo_planner::sbpl::{parse_env, SbplLattice};
 
-use super::Error;
-use crate::cli::PlanArgs;
+use crate::args::PlanArgs;
+use crate::Error;
 
 /// One published solution.
 #[derive(Serialize, Debug, Clone)]

@@ -21,9 +21,9 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 
-use crate::cli::Outputs;
-use crate::config::{Config, STEP_PHASES};
-use crate::mission::{MissionResult, TaskFigures};
+use speleo_firmware::cli::Outputs;
+use speleo_firmware::config::{Config, STEP_PHASES};
+use speleo_firmware::mission::{MissionResult, TaskFigures};
 mod calibration;
 
 use calibration::planner_calibration;
@@ -131,10 +131,11 @@ pub struct ScenarioReport {
     pub world: String,
     pub sim_time_s: f64,
     pub wall_time_s: f64,
-    pub memory: Option<crate::mission::MemoryFigures>,
+    pub memory: Option<speleo_firmware::mission::MemoryFigures>,
     /// The planner's step times by phase, from which its units are sized.
-    pub planner_step_us:
-        Option<std::collections::BTreeMap<&'static str, crate::planner_figures::StepTimes>>,
+    pub planner_step_us: Option<
+        std::collections::BTreeMap<&'static str, speleo_firmware::planner_figures::StepTimes>,
+    >,
     pub tasks: Vec<TaskVerdict>,
     pub pass: bool,
 }
@@ -190,7 +191,7 @@ fn run_scenario(s: &Scenario, base: &Config, progress: bool) -> Result<ScenarioR
     cfg.sim.duration_s = s.duration_s;
     (s.configure)(&mut cfg);
     if !s.replay {
-        let r = crate::modes::simulate(&mut cfg, &Outputs::default(), progress)?;
+        let r = speleo_firmware::modes::simulate(&mut cfg, &Outputs::default(), progress)?;
         return Ok(judge(s, &r));
     }
     let dir = std::env::temp_dir().join(format!("speleo-wcet-{}", std::process::id()));
@@ -200,8 +201,8 @@ fn run_scenario(s: &Scenario, base: &Config, progress: bool) -> Result<ScenarioR
         record: Some(log.clone()),
         ..Outputs::default()
     };
-    crate::modes::simulate(&mut cfg, &recorded, progress)?;
-    let replayed = crate::modes::replay_recording(&log, &Outputs::default(), progress);
+    speleo_firmware::modes::simulate(&mut cfg, &recorded, progress)?;
+    let replayed = speleo_firmware::modes::replay_recording(&log, &Outputs::default(), progress);
     let _ = std::fs::remove_dir_all(&dir);
     let r = replayed?;
     if let Some(d) = r.divergence {
@@ -297,7 +298,7 @@ pub fn wcet(
         scenarios,
     };
     if let Some(p) = report {
-        crate::report::write_json(p, &out)?;
+        speleo_firmware::report::write_json(p, &out)?;
     }
     if let Some(p) = calibrate {
         write_calibration(p, &base, &out.scenarios)?;
@@ -316,7 +317,7 @@ fn write_calibration(
     base: &Config,
     scenarios: &[ScenarioReport],
 ) -> Result<(), Error> {
-    let spec = crate::schedule_table::specs(base)?
+    let spec = speleo_firmware::schedule_table::specs(base)?
         .into_iter()
         .find(|s| s.name.as_str() == "planner")
         .and_then(|s| s.anytime)
