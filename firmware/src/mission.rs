@@ -7,16 +7,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
-use speleo_control::{
-    AccelLimiter, AccelLimits, FollowerParams, Path, PurePursuit, SafetyMonitor, SafetyParams,
-    SkidSteer,
-};
-use speleo_hal::{cia402, Hardware};
-use speleo_odometry::OdometryParams;
+use speleo_hal::Hardware;
 use speleo_scheduler::accounting;
 use speleo_scheduler::executive::ExecutiveError;
 use speleo_scheduler::realtime::StdPlatform;
-use speleo_scheduler::{Enforcement, Executive, FrameClock, Mode, Schedule, Task};
+use speleo_scheduler::{Enforcement, Executive, FrameClock, Mode, Schedule};
 use speleo_twin::TruthProbe;
 
 use crate::bus::Bus;
@@ -27,10 +22,7 @@ use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
 use crate::sim_host::SimWorker;
 use crate::slam_figures::{SlamFigures, TruthTrack};
-use crate::tasks::{
-    control, drive_driver, drive_output, health, imu_driver, io, lidar_driver, maps, odometry,
-    planner, recorder, slam,
-};
+use crate::tasks::{BuildError, Tasks};
 
 /// How long the mission runs.
 #[derive(Clone, Copy, Debug)]
@@ -136,12 +128,8 @@ pub struct MissionResult {
 pub enum MissionError {
     #[error("{0}")]
     Executive(#[from] ExecutiveError),
-    #[error("maps: {0}")]
-    Maps(#[from] speleo_mapping::ParamsError),
-    #[error("planner: {0}")]
-    Planner(String),
-    #[error("lidar.calibration: {0}")]
-    Calibration(#[from] speleo_hal::hdl32e::calib::CalibError),
+    #[error(transparent)]
+    Build(#[from] BuildError),
     #[error("sim.faults: {0}")]
     Faults(String),
 }
@@ -152,124 +140,12 @@ pub fn cloud_message_capacity(max_points: u32) -> usize {
     max_points as usize * 20 + 1024
 }
 
-fn lidar_calibration(cfg: &Config) -> Result<speleo_hal::hdl32e::Calibration, MissionError> {
-    use speleo_hal::hdl32e::Calibration;
-    let l = &cfg.lidar;
-    Ok(if l.calibration.is_empty() {
-        Calibration::nominal()
-    } else {
-        Calibration::load(std::path::Path::new(&l.calibration))?
-    })
-}
-
-/// Where the LiDAR's downward rings meet the ground the rover stands on,
-/// within `maps.unseen_ground_reach_m` (none at 0).
-fn expected_ground(
-    cfg: &Config,
-) -> Result<Option<speleo_mapping::mls::ExpectedGround>, MissionError> {
-    let reach = cfg.maps.unseen_ground_reach_m;
-    if reach <= 0.0 {
-        return Ok(None);
-    }
-    let cal = lidar_calibration(cfg)?;
-    let elevations = cal.lasers.map(|l| l.vert_deg);
-    // One ray a degree: 2.8 cm apart at 1.6 m, under the 10 cm cells.
-    Ok(Some(speleo_mapping::mls::ExpectedGround::new(
-        &mount_pose(cfg).to_isometry(),
-        &elevations,
-        -base_height_m(cfg),
-        reach,
-        360,
-    )))
-}
-
-fn build_lidar_driver(cfg: &Config) -> Result<lidar_driver::LidarDriver, MissionError> {
-    use speleo_hal::hdl32e::{Decoder, FrameAssembler, Interpolation};
-    let l = &cfg.lidar;
-    let cal = lidar_calibration(cfg)?;
-    let mode = match l.interpolation.as_str() {
-        "veloview" => Interpolation::VeloView,
-        "velodyne-decoder" => Interpolation::FixedPairs,
-        _ => Interpolation::Continuous,
-    };
-    let mut decoder = Decoder::new(&cal).with_interpolation(mode);
-    decoder.min_distance_m = l.min_range_m;
-    let cap = l.max_points_per_frame as usize;
-    Ok(lidar_driver::LidarDriver::new(
-        FrameAssembler::new(decoder, l.cut_angle_deg, cap),
-        cap,
-    ))
-}
-
-/// The planner task, or one that never plans when planning is off.
-fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, MissionError> {
-    let res = cfg.maps.mls_resolution_m;
-    let prims = if cfg.planner.mprim.is_empty() {
-        speleo_planner::primitives::generate(&speleo_planner::primitives::PrimitiveSpec {
-            resolution_m: res,
-            ..Default::default()
-        })
-    } else {
-        let path = &cfg.planner.mprim;
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| MissionError::Planner(format!("cannot read {path}: {e}")))?;
-        speleo_planner::mprim::parse(&text)
-            .map_err(|e| MissionError::Planner(format!("{path}: {e}")))?
-    };
-    let (pc, route) = if on {
-        (cfg.planner.clone(), &cfg.control.path[..])
-    } else {
-        let idle = crate::config::PlannerConfig {
-            max_nodes: 16,
-            window_m: 2.0,
-            window_max_m: 2.0,
-            goal_ahead_m: 1.0,
-            ..cfg.planner.clone()
-        };
-        (idle, &[][..])
-    };
-    let nav = speleo_navigator::Navigator::new(
-        &pc.navigator_params(),
-        &prims,
-        res,
-        route,
-        cfg.control.looped,
-        base_height_m(cfg),
-    )
-    .map_err(MissionError::Planner)?;
-    Ok(planner::PlannerTask::new(
-        nav,
-        pc.step_units.as_array(),
-        crate::sim_host::SimHost::default(),
-        mount_pose(cfg),
-    ))
-}
-
-/// The health task's limits from `[health]`.
-fn health_params(cfg: &Config) -> speleo_health::HealthParams {
-    let h = &cfg.health;
-    let ms = |v: u32| v as u64 * 1_000_000;
-    // Checks run every 100 ms.
-    let checks = h.wheel_disagreement_ms.div_ceil(100).max(1);
-    speleo_health::HealthParams {
-        imu_limit_ns: ms(h.imu_timeout_ms),
-        drive_limit_ns: ms(h.drive_heartbeat_timeout_ms),
-        lidar_limit_ns: ms(h.lidar_timeout_ms),
-        grace_ns: ms(h.startup_grace_ms),
-        safe_on_stale: h.safe_mode_on_stale,
-        wheel_checks: checks,
-        storm_overruns: h.overrun_storm_per_s as u64,
-        clock_jump_ns: ms(h.clock_jump_ms),
-        recover_after_ns: ms(h.recover_after_ms),
-    }
-}
-
 /// The simulator's worker as a task of its own core: a batch a frame at
-/// most, within [`crate::schedule_table::SIM_WORKER_BUDGET_US`].
+/// most, within [`crate::sim_host::SIM_WORKER_BUDGET_US`].
 fn worker_figures(w: &SimWorker, minor_frame_us: u32) -> TaskFigures {
     let (h, cpu) = (&w.batch_times, &w.batch_cpu_times);
     let us = |ns: u64| ns as f64 * 1e-3;
-    let budget = crate::schedule_table::SIM_WORKER_BUDGET_US;
+    let budget = crate::sim_host::SIM_WORKER_BUDGET_US;
     TaskFigures {
         name: "sim_worker".into(),
         period_us: minor_frame_us as u64,
@@ -292,82 +168,10 @@ fn worker_figures(w: &SimWorker, minor_frame_us: u32) -> TaskFigures {
     }
 }
 
-/// The planner task's accounting slot (the executive's numbering).
-fn planner_slot() -> u16 {
-    let i = crate::schedule_table::TASKS
-        .iter()
-        .position(|t| *t == "planner")
-        .unwrap_or(0);
-    1 + i as u16
-}
-
-fn base_height_m(cfg: &Config) -> f64 {
-    0.9 * cfg.rover.wheel_radius_m
-}
-
 /// Park this thread once so that everything the standard library creates
 /// lazily for parking exists before the first frame.
 fn warm_up_blocking() {
     std::thread::park_timeout(Duration::from_micros(1));
-}
-
-fn follower(cfg: &Config) -> PurePursuit {
-    let mut path = Path::new();
-    for p in &cfg.control.path {
-        let _ = path.push(*p);
-    }
-    PurePursuit::new(follower_params(cfg), path, cfg.control.looped)
-}
-
-/// The internal simulator: the simulated rover's build, the control
-/// task's follower and limits, `[simulator]`'s world and judgement.
-pub fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
-    let s = &cfg.simulator;
-    let c = &cfg.control;
-    let r = &cfg.rover;
-    speleo_simulator::SimulatorParams {
-        physics: cfg.sim.rover.clone(),
-        follower: follower_params(cfg),
-        limits: AccelLimits {
-            max_accel: c.max_accel,
-            max_decel: c.max_decel,
-            max_yaw_accel: c.max_yaw_accel,
-        },
-        skid: SkidSteer {
-            wheel_radius_m: r.wheel_radius_m,
-            track_width_m: r.track_width_m,
-            skid_factor: r.skid_factor,
-            max_wheel_speed: r.max_wheel_speed,
-        },
-        voxel_m: s.voxel_m,
-        max_blocks: s.max_blocks,
-        margin_m: s.margin_m,
-        dt_s: s.dt_s,
-        goal_tolerance_m: s.goal_tolerance_m,
-        // The rover's own safety monitor stops it at its tilt limit: a
-        // plan that tilts it past that fails on board as surely as one
-        // that turns it over (in the garage, plans the simulation passed
-        // at 32 degrees, a wheel down a ramp's side, stopped the rover
-        // there).
-        tip_over_deg: s.tip_over_deg.min(cfg.control.max_tilt_deg),
-        stuck_after_s: s.stuck_after_s,
-        newest_keyframes: s.newest_keyframes,
-        base_height_m: base_height_m(cfg),
-        start_tilted: s.start_tilted,
-        start_tilted_over_deg: s.start_tilted_over_deg,
-        way_back_drop_m: s.way_back_drop_m,
-        overhang_depth_m: s.overhang_depth_m,
-        ..speleo_simulator::SimulatorParams::default()
-    }
-}
-
-fn follower_params(cfg: &Config) -> FollowerParams {
-    FollowerParams {
-        lookahead_m: cfg.control.lookahead_m,
-        cruise_speed: cfg.control.cruise_speed,
-        max_yaw_rate: cfg.control.max_yaw_rate,
-        goal_tolerance_m: 0.2,
-    }
 }
 
 /// Run the mission. The tap is created by the caller (with or without a
@@ -380,154 +184,14 @@ pub fn run<C: FrameClock>(
     clock: C,
 ) -> Result<MissionResult, MissionError> {
     let cfg = m.cfg;
-    let r = &cfg.rover;
     let mut bus = Bus::new();
     let hw = RefCell::new(hw);
-    let mut t_io = io::IoTask::new(&hw);
-    let mut t_lidar = build_lidar_driver(cfg)?;
-    // 100 Hz outputs; 100 ms for each acknowledgement, 5 tries.
-    let mut t_imu = imu_driver::ImuDriver::new(100, 100_000_000, 5, cfg.devices.imu_baud);
-    let mut t_drive = drive_driver::DriveDriver::default();
-    let mut t_odo = odometry::OdometryTask::new(OdometryParams {
-        wheel_radius_m: r.wheel_radius_m,
-        counts_per_rev: cia402::COUNTS_PER_REV as f64,
-        max_step_m: 1.0,
-        track_width_m: r.track_width_m,
-        skid_factor: r.skid_factor,
-        ..OdometryParams::default()
-    });
-    let mut t_slam = slam::SlamTask::new(
-        cfg.slam.params(),
-        cfg.slam.enabled,
-        mount_pose(cfg),
-        cfg.lidar.max_points_per_frame as usize,
-    );
-    if let Some(f) = &cfg.sim.false_loop_closure {
-        t_slam.inject_false_loop(f.clone());
-    }
-    let maps_on = cfg.maps.enabled && cfg.slam.enabled;
-    let kf_capacity = cfg.slam.keyframe_capacity;
-    let mut t_maps = if maps_on {
-        bus.keyframe_clouds =
-            speleo_mapping::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
-        t_slam = t_slam.with_maps(cfg.maps.range_m, cfg.maps.keyframe_points);
-        bus.surface = speleo_mapping::SurfaceMaps::new(cfg.maps.mls_params())?;
-        let mut t = maps::MapsTask::new(&cfg.maps, kf_capacity);
-        t.builder = t.builder.with_sensor_at(cfg.lidar.mount_xyz);
-        if let Some(g) = expected_ground(cfg)? {
-            t.builder = t.builder.with_expected_ground(g);
-        }
-        t
-    } else {
-        // Idle: nothing ever reaches the keyframe clouds.
-        maps::MapsTask::new(
-            &crate::config::MapsConfig {
-                mls_max_cells: 1,
-                ..cfg.maps.clone()
-            },
-            0,
-        )
-    };
-    let planner_on = maps_on && cfg.planner.enabled;
-    let mut t_plan = build_planner(cfg, planner_on)?;
-    let mut worker_sync = None;
-    if planner_on && cfg.exploration.enabled {
-        let e = &cfg.exploration;
-        let mut ex = speleo_navigator::Exploration::new(
-            e.explorer_params(),
-            e.candidate_params(),
-            e.target,
-            e.settle_s,
-        );
-        if cfg.simulator.enabled {
-            let sim = speleo_simulator::InternalSim::new(simulator_params(cfg))
-                .map_err(MissionError::Planner)?;
-            ex = ex.with_simulator(sim);
-            if cfg.simulator.worker_units > 0 {
-                let w = SimWorker::spawn(
-                    cfg.simulator.worker_units,
-                    cfg.simulator.dt_s,
-                    planner_slot(),
-                )
-                .map_err(|e| MissionError::Planner(format!("the simulator's worker: {e}")))?;
-                worker_sync = Some(w.sync());
-                t_plan.host.worker = Some(w);
-            }
-            if let Some(dir) = &cfg.simulator.dump_dir {
-                let dump = crate::validation_dump::ValidationDump::new(dir)
-                    .map_err(MissionError::Planner)?;
-                t_plan.host.dump = Some(dump);
-            }
-        }
-        t_plan.nav = t_plan.nav.with_exploration(ex);
-    }
-    let c = &cfg.control;
-    let mut driver = speleo_control::Driver::new(
-        follower(cfg),
-        SkidSteer {
-            wheel_radius_m: r.wheel_radius_m,
-            track_width_m: r.track_width_m,
-            skid_factor: r.skid_factor,
-            max_wheel_speed: r.max_wheel_speed,
-        },
-        AccelLimiter::new(AccelLimits {
-            max_accel: c.max_accel,
-            max_decel: c.max_decel,
-            max_yaw_accel: c.max_yaw_accel,
-        }),
-        SafetyMonitor::new(SafetyParams {
-            max_tilt_deg: c.max_tilt_deg,
-            stuck_after_s: c.stuck_after_s,
-            max_cross_track_m: c.max_cross_track_m,
-            max_step_m: cfg.planner.max_step_m,
-            max_slope_deg: cfg.planner.max_slope_deg,
-            base_height_m: base_height_m(cfg),
-            front_m: 0.5 * cfg.planner.body_length_m,
-            half_track_m: 0.5 * cfg.rover.track_width_m,
-            ..SafetyParams::default()
-        }),
-    );
-    let exploring = planner_on && cfg.exploration.enabled;
-    if exploring {
-        driver = driver.following_plans(follower_params(cfg));
-    }
-    let mut t_control = control::ControlTask::new(driver);
-    let mut t_out =
-        drive_output::DriveOutput::new(speleo_hal::canopen::supervisor::SupervisorParams {
-            heartbeat_timeout_ns: cfg.health.drive_heartbeat_timeout_ms as u64 * 1_000_000,
-            command_timeout_ns: cfg.control.command_timeout_ms as u64 * 1_000_000,
-            retry_ns: 200_000_000,
-            boot_grace_ns: cfg.health.startup_grace_ms as u64 * 1_000_000,
-            max_velocity: (cfg.rover.max_wheel_speed * 1000.0).round() as i32,
-            fault_reset_ns: cfg.health.drive_fault_reset_ms as u64 * 1_000_000,
-        });
-    let mut t_health = health::HealthTask::new(health_params(cfg));
     let faults = crate::faults::parse_all(&cfg.sim.faults).map_err(MissionError::Faults)?;
     let mut fault_log = crate::faults::log::FaultLog::new(&faults);
-    let mut t_rec = recorder::RecorderTask::new(
-        tap,
-        cfg.control.path.clone(),
-        cfg.control.looped,
-        cfg.lidar.mount_xyz,
-        cfg.lidar.mount_rpy_deg,
-    )
-    .with_cloud_every(cfg.record.cloud_every);
-
-    // Same order as schedule_table::TASKS.
-    let mut tasks: heapless::Vec<&mut dyn Task<Bus>, { speleo_scheduler::MAX_TASKS }> =
-        heapless::Vec::new();
-    let _ = tasks.push(&mut t_io);
-    let _ = tasks.push(&mut t_lidar);
-    let _ = tasks.push(&mut t_imu);
-    let _ = tasks.push(&mut t_drive);
-    let _ = tasks.push(&mut t_odo);
-    let _ = tasks.push(&mut t_slam);
-    let _ = tasks.push(&mut t_maps);
-    let _ = tasks.push(&mut t_plan);
-    let _ = tasks.push(&mut t_control);
-    let _ = tasks.push(&mut t_out);
-    let _ = tasks.push(&mut t_health);
-    let _ = tasks.push(&mut t_rec);
+    let mut built = Tasks::build(cfg, &mut bus, &hw, tap)?;
+    let maps_on = cfg.maps.enabled && cfg.slam.enabled;
+    let planner_on = maps_on && cfg.planner.enabled;
+    let worker_sync = built.planner.host.worker.as_ref().map(|w| w.sync());
     let minor_frame_us = m.schedule.minor_frame_us();
     let m_names: Vec<String> = m
         .schedule
@@ -536,7 +200,13 @@ pub fn run<C: FrameClock>(
         .map(|t| t.name.to_string())
         .collect();
     let ntasks = m.schedule.tasks().len();
-    let mut exec = Executive::new(m.schedule, tasks, StdPlatform, clock, m.enforcement)?;
+    let mut exec = Executive::new(
+        m.schedule,
+        built.in_order(),
+        StdPlatform,
+        clock,
+        m.enforcement,
+    )?;
     let io_task = exec.schedule().tasks().iter().position(|t| t.name == "io");
 
     let total = match m.length {
@@ -712,7 +382,7 @@ pub fn run<C: FrameClock>(
     let suppressed_events = exec.suppressed_events();
     // The executive borrows the tasks; release them to read SLAM's result.
     drop(exec);
-    if let Some(w) = &t_plan.host.worker {
+    if let Some(w) = &built.planner.host.worker {
         tasks.push(worker_figures(w, minor_frame_us));
     }
     track.odom_origin = odom_origin.map(|(p, q)| (p, 2.0 * q[3].atan2(q[0])));
@@ -721,9 +391,9 @@ pub fn run<C: FrameClock>(
             tracing::warn!("the true track not written to {}: {e}", dir.display());
         }
     }
-    let slam = (t_slam.slam().stats().keyframes > 0).then(|| {
+    let slam = (built.slam.slam().stats().keyframes > 0).then(|| {
         crate::slam_figures::figures(
-            t_slam.slam(),
+            built.slam.slam(),
             m.truth.as_ref().map(|_| &track),
             m.truth.as_ref().map(|_| cfg.sim.imu_misalignment_deg),
         )
@@ -731,26 +401,26 @@ pub fn run<C: FrameClock>(
     let maps = maps_on.then(|| crate::maps_output::MapsResult {
         mls: bus.surface.stats(),
         memory_bytes: bus.surface.memory_bytes() + bus.keyframe_clouds.memory_bytes(),
-        counters: t_maps.builder.counters,
+        counters: built.maps.builder.counters,
         keyframes: std::mem::replace(
             &mut bus.keyframe_clouds,
             speleo_mapping::KeyframeClouds::new(0, 0),
         ),
-        mount: mount_pose(cfg),
+        mount: crate::params::mount_pose(cfg),
     });
     let planner =
-        planner_on.then(|| crate::planner_figures::figures(&t_plan, cfg.planner.max_nodes));
+        planner_on.then(|| crate::planner_figures::figures(&built.planner, cfg.planner.max_nodes));
     let mut explored = None;
-    let exploration = t_plan.nav.exploration().map(|e| {
+    let exploration = built.planner.nav.exploration().map(|e| {
         use crate::exploration_figures as ef;
-        let mut f = ef::onboard(e, &t_control.counters());
+        let mut f = ef::onboard(e, &built.control.counters());
         // The ground under home, every keyframe and the rover now. A full
         // map drops what lies farthest from the rover, so a mission that
         // ended far from home (stranded on the garage's roof) may hold no
         // ground there any more, nor under the rover if it stands on an
         // edge; what the rest of its track reaches is still explored.
-        let below = |p: [f64; 3]| [p[0], p[1], p[2] - base_height_m(cfg)];
-        let graph = t_slam.slam();
+        let below = |p: [f64; 3]| [p[0], p[1], p[2] - crate::params::base_height_m(cfg)];
+        let graph = built.slam.slam();
         let mut starts = vec![below(e.explorer.home())];
         starts.extend((0..graph.keyframes().len()).map(|k| {
             let at = graph.keyframe_pose(k).t;
@@ -802,9 +472,13 @@ pub fn run<C: FrameClock>(
         faults: fault_log.figures(),
         exploration,
         explored,
-        exploration_home: t_plan.nav.exploration().map(|e| e.explorer.home()),
-        internal_sim: t_plan.nav.exploration().and_then(|e| {
-            crate::exploration_figures::internal_sim(e, t_plan.host.worker.as_ref(), minor_frame_us)
+        exploration_home: built.planner.nav.exploration().map(|e| e.explorer.home()),
+        internal_sim: built.planner.nav.exploration().and_then(|e| {
+            crate::exploration_figures::internal_sim(
+                e,
+                built.planner.host.worker.as_ref(),
+                minor_frame_us,
+            )
         }),
         world_from_map: track.odom_origin,
         frames,
@@ -828,16 +502,6 @@ pub fn run<C: FrameClock>(
         recorder: t.counters,
         counters: bus.counters,
     })
-}
-
-/// The LiDAR mount from the configuration: base <- sensor.
-fn mount_pose(cfg: &Config) -> speleo_slam::lie::Pose {
-    let [r, p, y] = cfg.lidar.mount_rpy_deg.map(f64::to_radians);
-    let q = nalgebra::UnitQuaternion::from_euler_angles(r, p, y);
-    speleo_slam::lie::Pose::new(
-        *q.to_rotation_matrix().matrix(),
-        nalgebra::Vector3::from(cfg.lidar.mount_xyz),
-    )
 }
 
 fn record_truth(
@@ -938,20 +602,4 @@ pub fn summary_metadata(r: &MissionResult) -> BTreeMap<String, String> {
     m.insert("output_hash".into(), format!("{:016x}", r.output_hash));
     m.insert("mode_at_end".into(), mode_name(r.mode).into());
     m
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_internal_simulation_fails_a_plan_where_the_safety_monitor_would_stop_the_rover() {
-        let mut cfg = Config::default();
-        cfg.control.max_tilt_deg = 30.0;
-        cfg.simulator.tip_over_deg = 45.0;
-        assert_eq!(simulator_params(&cfg).tip_over_deg, 30.0);
-        // A lower tip-over angle of its own still counts.
-        cfg.simulator.tip_over_deg = 25.0;
-        assert_eq!(simulator_params(&cfg).tip_over_deg, 25.0);
-    }
 }

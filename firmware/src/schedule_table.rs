@@ -1,10 +1,11 @@
-//! The schedule table: which tasks exist, in which order they run within a
-//! frame, and their default rate groups, budgets and overrun policies. The
-//! configuration's `[tasks.NAME]` tables override the defaults.
+//! The schedule: the topology's tasks (`crate::tasks::TOPOLOGY`) with the
+//! configuration's `[tasks.NAME]` overrides applied, checked to fit the
+//! frame; and the memory budgets of the tasks that may allocate.
 
-use speleo_scheduler::{AnytimeSpec, OverrunPolicy, RateGroup, Schedule, TaskSpec};
+use speleo_scheduler::{AnytimeSpec, OverrunPolicy, Schedule, TaskSpec};
 
 use crate::config::{Config, ConfigError};
+use crate::tasks::{Node, TASKS, TOPOLOGY};
 
 /// Tasks that call allocating crates and run within a memory budget:
 /// slam (the solver's sparse analysis) always; the planner while the
@@ -38,100 +39,9 @@ pub const SLAM_MEMORY_BUDGET_KIB: u32 = 8 * 1024;
 /// runs: `speleo wcet --scenario validate` measured 10.6 MiB in a run.
 pub const PLANNER_MEMORY_BUDGET_KIB: u32 = 32 * 1024;
 
-/// The internal simulator's batch on its worker core
-/// (`[simulator] worker_units`): it has the frame, less the hand-overs.
-pub const SIM_WORKER_BUDGET_US: u32 = 8_000;
-
-/// Task names in execution order.
-pub const TASKS: [&str; 12] = [
-    "io",
-    "lidar_driver",
-    "imu_driver",
-    "drive_driver",
-    "odometry",
-    "slam",
-    "maps",
-    "planner",
-    "control",
-    "drive_output",
-    "health",
-    "recorder",
-];
-
-/// The most work units of one planner step: each phase does its own
-/// `planner.step_units` (calibrated with `speleo wcet --calibrate`), capped
-/// by this quantum.
-pub const PLANNER_QUANTUM: u32 = crate::config::MAX_STEP_UNITS;
-
-fn defaults() -> Vec<TaskSpec> {
-    use OverrunPolicy::*;
-    let every = RateGroup::EVERY_FRAME;
-    vec![
-        // Moves the frame's bytes between the devices and the bus (max
-        // ~50 us measured in sim).
-        TaskSpec::periodic("io", every, 400, Skip).safe(),
-        // ~18 packets (6,700 points) a frame, decoded at ~90 M points/s; once a
-        // revolution (~70k points) is handed over: ~0.2 ms more.
-        TaskSpec::periodic("lidar_driver", every, 1_000, Skip).safe(),
-        TaskSpec::periodic("imu_driver", every, 300, Skip).safe(),
-        TaskSpec::periodic("drive_driver", every, 300, Skip).safe(),
-        // Also in safe mode: a stopped rover keeps knowing where it is, and
-        // the health task keeps seeing its wheels.
-        TaskSpec::periodic("odometry", every, 300, ReuseLast).safe(),
-        // One bounded unit of keyframe work a frame (a part of a cloud's
-        // preparation or of a GICP pass, the insertion, the solver's analysis,
-        // a slice of factors of an LM iteration or its factorisation).
-        TaskSpec::anytime(
-            "slam",
-            every,
-            2_000,
-            Skip,
-            AnytimeSpec {
-                quantum: 1,
-                steps: 1,
-                window_us: 2_000,
-            },
-        ),
-        // The multi-level surface map: one part of a keyframe's cloud
-        // (maps.points_per_step points, ~0.4 ms) in the even frames, where
-        // control does not run and 0.9 ms are free.
-        TaskSpec::anytime(
-            "maps",
-            RateGroup::new(2, 0),
-            900,
-            Skip,
-            AnytimeSpec {
-                quantum: 1,
-                steps: 1,
-                window_us: 900,
-            },
-        ),
-        // The planner: one phase's quantum a frame (graph nodes grown,
-        // lattice units prepared, or ARA* expansions).
-        TaskSpec::anytime(
-            "planner",
-            every,
-            1_000,
-            Skip,
-            AnytimeSpec {
-                quantum: PLANNER_QUANTUM,
-                steps: 1,
-                window_us: 1_000,
-            },
-        ),
-        // 50 Hz path following, in the odd frames.
-        TaskSpec::periodic("control", RateGroup::new(2, 1), 500, Degrade),
-        TaskSpec::periodic("drive_output", every, 200, SafeMode).safe(),
-        // 10 Hz health, offset to spread the load.
-        TaskSpec::periodic("health", RateGroup::new(10, 5), 200, Skip).safe(),
-        // Chunk compression peaks at ~1.9 ms.
-        TaskSpec::periodic("recorder", every, 2_400, Degrade).safe(),
-    ]
-}
-
 /// The task table with the configuration's overrides applied.
 pub fn specs(cfg: &Config) -> Result<Vec<TaskSpec>, ConfigError> {
-    let mut specs = defaults();
+    let mut specs: Vec<TaskSpec> = TOPOLOGY.iter().map(Node::spec).collect();
     for (name, o) in &cfg.tasks {
         let Some(spec) = specs.iter_mut().find(|s| s.name.as_str() == name) else {
             return Err(ConfigError::Invalid {

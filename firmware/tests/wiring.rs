@@ -1,12 +1,40 @@
-//! The wiring table (`speleo_firmware::wiring`) against the code: every
-//! task of the schedule has a row, every mailbox a writer, and each task's
-//! code touches exactly the fields its row names, writing only those it
-//! declares it writes.
+//! The topology (`speleo_firmware::tasks::TOPOLOGY`) against the code:
+//! every mailbox has a writer, each task's code touches exactly the fields
+//! its row names, writing only those it declares it writes, and
+//! docs/architecture.md's task table is the topology's (run with
+//! `SPELEO_BLESS_DOCS=1` to rewrite it from the topology).
 
 use std::collections::BTreeSet;
 
-use speleo_firmware::schedule_table::TASKS;
-use speleo_firmware::wiring::WIRING;
+use speleo_firmware::tasks::{EXECUTIVE_READS, EXECUTIVE_WRITES, TOPOLOGY};
+
+/// A row of the wiring: the tasks', then the mission loop's.
+struct Row {
+    task: &'static str,
+    /// Its file under `src/tasks/` (none for the mission loop).
+    file: Option<String>,
+    writes: &'static [&'static str],
+    reads: &'static [&'static str],
+}
+
+fn rows() -> Vec<Row> {
+    let mut rows: Vec<Row> = TOPOLOGY
+        .iter()
+        .map(|n| Row {
+            task: n.task,
+            file: Some(format!("{}.rs", n.task)),
+            writes: n.writes,
+            reads: n.reads,
+        })
+        .collect();
+    rows.push(Row {
+        task: "executive",
+        file: None,
+        writes: EXECUTIVE_WRITES,
+        reads: EXECUTIVE_READS,
+    });
+    rows
+}
 
 const SRC: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/src");
 
@@ -41,7 +69,7 @@ const WRITING_CALLS: [&str; 11] = [
 ];
 
 /// The fields a task's code (tests aside) touches, and those it changes.
-fn touched(files: &[&str]) -> (BTreeSet<String>, BTreeSet<String>) {
+fn touched(files: &[String]) -> (BTreeSet<String>, BTreeSet<String>) {
     let (mut all, mut written) = (BTreeSet::new(), BTreeSet::new());
     for f in files {
         let text = std::fs::read_to_string(format!("{SRC}/tasks/{f}")).expect("task file");
@@ -100,16 +128,14 @@ fn touched(files: &[&str]) -> (BTreeSet<String>, BTreeSet<String>) {
 }
 
 #[test]
-fn every_scheduled_task_has_a_row_in_schedule_order_and_every_mailbox_a_writer() {
-    let rows: Vec<&str> = WIRING.iter().map(|w| w.task).collect();
-    assert_eq!(&rows[..TASKS.len()], &TASKS[..]);
-    assert_eq!(rows[TASKS.len()..], ["executive"]);
+fn every_mailbox_has_a_writer_and_each_row_names_real_fields_once() {
+    let rows = rows();
     let fields = bus_fields();
     assert!(
         fields.contains("plan") && fields.contains("raw"),
         "{fields:?}"
     );
-    for w in &WIRING {
+    for w in &rows {
         for f in w.writes.iter().chain(w.reads) {
             assert!(fields.contains(*f), "{}: the bus has no field {f}", w.task);
         }
@@ -123,7 +149,7 @@ fn every_scheduled_task_has_a_row_in_schedule_order_and_every_mailbox_a_writer()
     }
     for f in &fields {
         assert!(
-            WIRING.iter().any(|w| w.writes.contains(&f.as_str())),
+            rows.iter().any(|w| w.writes.contains(&f.as_str())),
             "nothing writes bus.{f}"
         );
     }
@@ -131,8 +157,9 @@ fn every_scheduled_task_has_a_row_in_schedule_order_and_every_mailbox_a_writer()
 
 #[test]
 fn each_task_touches_the_fields_its_row_names_and_writes_only_those_it_declares() {
-    for w in WIRING.iter().filter(|w| !w.files.is_empty()) {
-        let (all, written) = touched(w.files);
+    for w in rows() {
+        let Some(file) = &w.file else { continue };
+        let (all, written) = touched(std::slice::from_ref(file));
         let declared: BTreeSet<String> = w
             .writes
             .iter()
@@ -169,46 +196,50 @@ fn rate_text(spec: &speleo_scheduler::TaskSpec, frame_hz: u32) -> String {
     t
 }
 
-#[test]
-fn the_architecture_pages_task_table_is_the_schedule_and_the_wiring() {
+const TABLE_HEAD: &str = "| task | rate | budget | policy | safe | writes | reads | does |";
+
+/// docs/architecture.md's task table as the topology and the default
+/// configuration's schedule give it.
+fn task_table() -> String {
     let cfg = speleo_firmware::config::Config::default();
     let specs = speleo_firmware::schedule_table::specs(&cfg).expect("default table");
     let frame_hz = 1_000_000 / cfg.executive.minor_frame_us;
-    let page = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../docs/architecture.md"
-    ))
-    .expect("docs/architecture.md");
-    let rows: Vec<Vec<String>> = page
-        .split("| task | rate | budget | policy | safe | writes | reads | does |")
-        .nth(1)
-        .expect("the page has the task table")
-        .lines()
-        .skip(2)
-        .take_while(|l| l.starts_with('|'))
-        .map(|l| l.split('|').map(|c| c.trim().to_string()).collect())
-        .collect();
-    let names: Vec<&str> = rows.iter().map(|r| r[1].as_str()).collect();
-    assert_eq!(names, TASKS, "the page's tasks, in order");
-    for (row, spec) in rows.iter().zip(&specs) {
-        let w = WIRING
-            .iter()
-            .find(|w| w.task == spec.name.as_str())
-            .expect("a wiring row");
-        let expected = [
-            spec.name.to_string(),
+    let mut t = format!("{TABLE_HEAD}\n|---|---|---|---|---|---|---|---|\n");
+    for (n, spec) in TOPOLOGY.iter().zip(&specs) {
+        t.push_str(&format!(
+            "| {} | {} | {} us | {} | {} | {} | {} | {} |\n",
+            spec.name,
             rate_text(spec, frame_hz),
-            format!("{} us", spec.budget_us),
-            spec.policy.as_str().to_string(),
-            if spec.in_safe_mode { "yes" } else { "no" }.to_string(),
-            w.writes.join(", "),
-            w.reads.join(", "),
-        ];
-        assert_eq!(
-            row[1..8],
-            expected,
-            "docs/architecture.md, task {}",
-            spec.name
-        );
+            spec.budget_us,
+            spec.policy.as_str(),
+            if spec.in_safe_mode { "yes" } else { "no" },
+            n.writes.join(", "),
+            n.reads.join(", "),
+            n.does
+        ));
     }
+    t
+}
+
+#[test]
+fn the_architecture_pages_task_table_is_the_topologys() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/architecture.md");
+    let page = std::fs::read_to_string(path).expect("docs/architecture.md");
+    let start = page.find(TABLE_HEAD).expect("the page has the task table");
+    let len = page[start..]
+        .split_inclusive('\n')
+        .take_while(|l| l.starts_with('|'))
+        .map(str::len)
+        .sum::<usize>();
+    let (current, wanted) = (&page[start..start + len], task_table());
+    if std::env::var_os("SPELEO_BLESS_DOCS").is_some() {
+        let page = format!("{}{wanted}{}", &page[..start], &page[start + len..]);
+        std::fs::write(path, page).expect("docs/architecture.md written");
+        return;
+    }
+    assert_eq!(
+        current, wanted,
+        "docs/architecture.md's task table differs from the topology: \
+         run `SPELEO_BLESS_DOCS=1 cargo test -p speleo-firmware --test wiring` to rewrite it"
+    );
 }

@@ -8,7 +8,7 @@ use speleo_simulator::InternalSim;
 mod worker;
 
 use crate::validation_dump::ValidationDump;
-pub use worker::{SimWorker, WorkerCounters};
+pub use worker::{SimWorker, WorkerCounters, SIM_WORKER_BUDGET_US};
 
 #[derive(Default)]
 pub struct SimHost {

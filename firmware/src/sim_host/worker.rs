@@ -14,12 +14,16 @@ use speleo_scheduler::coprocessor::{Coprocessor, FrameSync};
 use speleo_scheduler::histogram::Histogram;
 use speleo_simulator::InternalSim;
 
+/// The internal simulator's batch on its worker core
+/// (`[simulator] worker_units`): it has the frame, less the hand-overs.
+pub const SIM_WORKER_BUDGET_US: u32 = 8_000;
+
 /// What the worker did, for the report.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct WorkerCounters {
     pub batches: u64,
     /// Batches whose wall time was over the worker's budget
-    /// ([`crate::schedule_table::SIM_WORKER_BUDGET_US`]), as the
+    /// ([`SIM_WORKER_BUDGET_US`]), as the
     /// executive counts its tasks' overruns.
     pub overruns: u64,
     /// Batches that drove the simulated rover, and its physics steps in them.
@@ -99,7 +103,7 @@ impl SimWorker {
         self.batch_times.record(b.elapsed_ns);
         self.batch_cpu_times.record(b.cpu_ns);
         self.counters.batches += 1;
-        let budget_ns = crate::schedule_table::SIM_WORKER_BUDGET_US as u64 * 1000;
+        let budget_ns = SIM_WORKER_BUDGET_US as u64 * 1000;
         if b.elapsed_ns > budget_ns {
             self.counters.overruns += 1;
         }

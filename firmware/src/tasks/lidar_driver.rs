@@ -1,12 +1,15 @@
 //! Decodes HDL-32E data packets into revolutions and position packets into
 //! the sensor's GPS time; bad packets are counted by kind, never fatal.
 
+use speleo_hal::hdl32e::calib::CalibError;
 use speleo_hal::hdl32e::position::PositionPacket;
-use speleo_hal::hdl32e::{DataPacket, FrameAssembler, PacketError, Point};
+use speleo_hal::hdl32e::{DataPacket, Decoder, FrameAssembler, Interpolation, PacketError, Point};
 use speleo_hal::Device;
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::Bus;
+use crate::config::Config;
+use crate::params;
 use speleo_messages::Cloud;
 
 pub struct LidarDriver {
@@ -34,6 +37,25 @@ impl LidarDriver {
             free,
             last_taken_ns: 0,
         }
+    }
+
+    /// The driver `[lidar]` describes: its calibration (nominal when none
+    /// is given), interpolation, cut angle, nearest range and capacity.
+    pub fn from_config(cfg: &Config) -> Result<Self, CalibError> {
+        let l = &cfg.lidar;
+        let cal = params::lidar_calibration(cfg)?;
+        let mode = match l.interpolation.as_str() {
+            "veloview" => Interpolation::VeloView,
+            "velodyne-decoder" => Interpolation::FixedPairs,
+            _ => Interpolation::Continuous,
+        };
+        let mut decoder = Decoder::new(&cal).with_interpolation(mode);
+        decoder.min_distance_m = l.min_range_m;
+        let cap = l.max_points_per_frame as usize;
+        Ok(LidarDriver::new(
+            FrameAssembler::new(decoder, l.cut_angle_deg, cap),
+            cap,
+        ))
     }
 }
 

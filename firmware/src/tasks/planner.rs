@@ -5,16 +5,22 @@
 //! state, and times the step for the units' calibration.
 
 use speleo_messages::DriveFeedback;
-use speleo_navigator::{NavInput, Navigator, STEP_PHASES};
+use speleo_navigator::{Exploration, NavInput, Navigator, STEP_PHASES};
+use speleo_planner::primitives;
 use speleo_scheduler::histogram::Histogram;
 use speleo_scheduler::mailbox::Stamped;
 use speleo_scheduler::realtime::thread_cpu_ns;
 use speleo_scheduler::{Context, StepResult, Task};
 use speleo_slam::lie::Pose;
 
+use speleo_simulator::InternalSim;
+
 use crate::bus::Bus;
+use crate::config::{Config, PlannerConfig};
+use crate::params;
 use crate::sim_clouds::MapClouds;
-use crate::sim_host::SimHost;
+use crate::sim_host::{SimHost, SimWorker};
+use crate::validation_dump::ValidationDump;
 
 /// A step this long on the thread's CPU clock is logged (debug), ns.
 const SLOW_STEP_NS: u64 = 1_000_000;
@@ -55,6 +61,88 @@ impl PlannerTask {
             step_units_run: [0; STEP_PHASES.len()],
         }
     }
+
+    /// The planner of `cfg`: the navigator over the configured (or
+    /// generated) primitives, exploring with the internal simulation and
+    /// its worker when configured; one that never plans when `on` is false.
+    pub fn from_config(cfg: &Config, on: bool) -> Result<Self, String> {
+        let res = cfg.maps.mls_resolution_m;
+        let prims = if cfg.planner.mprim.is_empty() {
+            primitives::generate(&primitives::PrimitiveSpec {
+                resolution_m: res,
+                ..Default::default()
+            })
+        } else {
+            let path = &cfg.planner.mprim;
+            let text =
+                std::fs::read_to_string(path).map_err(|e| format!("cannot read {path}: {e}"))?;
+            speleo_planner::mprim::parse(&text).map_err(|e| format!("{path}: {e}"))?
+        };
+        let (pc, route) = if on {
+            (cfg.planner.clone(), &cfg.control.path[..])
+        } else {
+            let idle = PlannerConfig {
+                max_nodes: 16,
+                window_m: 2.0,
+                window_max_m: 2.0,
+                goal_ahead_m: 1.0,
+                ..cfg.planner.clone()
+            };
+            (idle, &[][..])
+        };
+        let mut nav = Navigator::new(
+            &pc.navigator_params(),
+            &prims,
+            res,
+            route,
+            cfg.control.looped,
+            params::base_height_m(cfg),
+        )?;
+        let mut host = SimHost::default();
+        if on && cfg.exploration.enabled {
+            nav = nav.with_exploration(exploration(cfg, &mut host)?);
+        }
+        Ok(PlannerTask::new(
+            nav,
+            pc.step_units.as_array(),
+            host,
+            params::mount_pose(cfg),
+        ))
+    }
+}
+
+/// The exploration `[exploration]` describes, every plan first driven in
+/// the internal simulation (hosted on its worker core by `host`) when
+/// `[simulator]` is on.
+fn exploration(cfg: &Config, host: &mut SimHost) -> Result<Exploration, String> {
+    let e = &cfg.exploration;
+    let mut ex = Exploration::new(
+        e.explorer_params(),
+        e.candidate_params(),
+        e.target,
+        e.settle_s,
+    );
+    if cfg.simulator.enabled {
+        ex = ex.with_simulator(InternalSim::new(params::simulator(cfg))?);
+        if cfg.simulator.worker_units > 0 {
+            let w = SimWorker::spawn(cfg.simulator.worker_units, cfg.simulator.dt_s, slot())
+                .map_err(|e| format!("the simulator's worker: {e}"))?;
+            host.worker = Some(w);
+        }
+        if let Some(dir) = &cfg.simulator.dump_dir {
+            host.dump = Some(ValidationDump::new(dir)?);
+        }
+    }
+    Ok(ex)
+}
+
+/// The planner task's accounting slot (the executive's numbering).
+fn slot() -> u16 {
+    let i = super::TASKS
+        .iter()
+        .position(|t| *t == "planner")
+        .unwrap_or(0);
+    1 + i as u16
 }
 
 impl Task<Bus> for PlannerTask {

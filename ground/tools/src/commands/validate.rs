@@ -20,7 +20,7 @@ pub fn validate(a: ValidateArgs) -> Result<ExitCode, Error> {
         None => Config::default(),
     };
     cfg.validate()?;
-    let params = speleo_firmware::mission::simulator_params(&cfg);
+    let params = speleo_firmware::params::simulator(&cfg);
     let case = tv::read_case(&a.case)?;
     let create = |p: &Path| {
         std::fs::File::create(p)
