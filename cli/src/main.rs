@@ -1,13 +1,13 @@
-//! The `speleo` command: the flight modes (`speleo-firmware`) and the
+//! The `speleo` command: the flight commands (`speleo-firmware`) and the
 //! ground tools (`speleo-tools`) on one command line. It parses the
-//! arguments and runs the mode or tool they name.
+//! arguments and runs the flight command or tool they name.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
-use speleo_firmware::cli::{ReplayArgs, RunArgs, SimArgs};
-use speleo_firmware::modes;
+use speleo_firmware::args::{ReplayArgs, RunArgs, SimArgs};
+use speleo_firmware::commands as flight;
 use speleo_scheduler::accounting::AccountingAllocator;
 use speleo_tools::args::*;
 use speleo_tools::commands::{decode, mesh, solvers, validate, world};
@@ -18,7 +18,7 @@ static ALLOC: AccountingAllocator = AccountingAllocator;
 
 /// Speleo: on-board autonomy for rovers that explore lava tubes and caves.
 ///
-/// Every mode runs the same deterministic cyclic executive and the same
+/// Every flight command runs the same deterministic cyclic executive and the same
 /// drivers: `sim` against simulated hardware on virtual time, `replay`
 /// against a recording, `run` against the real rover on the monotonic clock.
 #[derive(Parser, Debug)]
@@ -108,11 +108,11 @@ pub struct SimCommand {
 
 /// `speleo sim`: the mission, then its plot when asked.
 fn sim(a: SimCommand, progress: bool) -> Result<ExitCode, speleo_tools::Error> {
-    let r = modes::sim_mission(a.mission, progress)?;
+    let r = flight::sim_mission(a.mission, progress)?;
     if let Some(path) = &a.plot {
         speleo_tools::plot::write_plot(path, &speleo_tools::plot::of_mission(&r))?;
     }
-    modes::print_summary(&r);
+    flight::print_summary(&r);
     Ok(ExitCode::SUCCESS)
 }
 
@@ -138,8 +138,8 @@ fn main() -> ExitCode {
     let progress = !cli.no_progress;
     let result = match cli.command {
         Command::Sim(a) => sim(a, progress),
-        Command::Replay(a) => modes::replay(a, progress),
-        Command::Run(a) => modes::run(a, progress),
+        Command::Replay(a) => flight::replay(a, progress),
+        Command::Run(a) => flight::run(a, progress),
         Command::Pcap2mcap(a) => decode::pcap2mcap(a),
         Command::Decode(d) => decode::decode(d),
         Command::World(WorldCommand::Export(a)) => world::world_export(a),

@@ -10,7 +10,7 @@ use speleo_control::StopReason;
 use speleo_mapping::mls::MlsMap;
 use speleo_traversability::{TravMap, TravParams};
 
-use crate::sim_host::SimWorker;
+use crate::simulator_host::SimulatorWorker;
 use speleo_control::ControlCounters;
 use speleo_navigator::Exploration;
 
@@ -237,7 +237,7 @@ pub struct InternalSimFigures {
 
 pub fn internal_sim(
     e: &Exploration,
-    w: Option<&SimWorker>,
+    w: Option<&SimulatorWorker>,
     minor_frame_us: u32,
 ) -> Option<InternalSimFigures> {
     if !e.validates() {

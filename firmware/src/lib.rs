@@ -1,23 +1,23 @@
 //! The flight software: configuration, the schedule table that wires tasks
-//! to mailboxes, the modes (sim, replay, run), the MCAP recorder and the
+//! to mailboxes, the flight commands (sim, replay, run), the MCAP recorder and the
 //! mission's report. The ground tools (`speleo-tools`) and the `speleo`
 //! binary (`speleo-cli`) build on it; it depends on neither.
 
+pub mod args;
 pub mod bus;
-pub mod cli;
+pub mod commands;
 pub mod config;
 pub mod exploration_figures;
 pub mod faults;
 pub mod maps_output;
 pub mod mission;
-pub mod modes;
 pub mod params;
 pub mod planner_figures;
 pub mod record;
 pub mod report;
 pub mod schedule_table;
-pub mod sim_clouds;
-pub mod sim_host;
+pub mod simulator_clouds;
+pub mod simulator_host;
 pub mod slam_figures;
 pub mod tasks;
 pub mod truth_map;

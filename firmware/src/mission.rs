@@ -20,7 +20,7 @@ use crate::record::encode::{FrameTransform, Pose, PoseInFrame, Quaternion, SeqOf
 use crate::record::messages::mode_name;
 use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
-use crate::sim_host::SimWorker;
+use crate::simulator_host::SimulatorWorker;
 use crate::slam_figures::{SlamFigures, TruthTrack};
 use crate::tasks::{BuildError, Tasks};
 
@@ -141,13 +141,13 @@ pub fn cloud_message_capacity(max_points: u32) -> usize {
 }
 
 /// The simulator's worker as a task of its own core: a batch a frame at
-/// most, within [`crate::sim_host::SIM_WORKER_BUDGET_US`].
-fn worker_figures(w: &SimWorker, minor_frame_us: u32) -> TaskFigures {
+/// most, within [`crate::simulator_host::SIM_WORKER_BUDGET_US`].
+fn worker_figures(w: &SimulatorWorker, minor_frame_us: u32) -> TaskFigures {
     let (h, cpu) = (&w.batch_times, &w.batch_cpu_times);
     let us = |ns: u64| ns as f64 * 1e-3;
-    let budget = crate::sim_host::SIM_WORKER_BUDGET_US;
+    let budget = crate::simulator_host::SIM_WORKER_BUDGET_US;
     TaskFigures {
-        name: "sim_worker".into(),
+        name: "simulator_worker".into(),
         period_us: minor_frame_us as u64,
         budget_us: budget,
         policy: "wait".into(),

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use speleo_physics::rover::{PhysicsParams, PhysicsRover};
-use speleo_physics::terrain::{Mesh, Surface};
+use speleo_physics::terrain::{Material, Mesh};
 
 /// A plane rising 15 degrees along x, 3 m square, of 5 cm right triangles.
 fn slope() -> Mesh {
@@ -27,7 +27,7 @@ fn slope() -> Mesh {
             let v = i * (n + 1) + j;
             m.triangles.push([v, v + n + 1, v + n + 2]);
             m.triangles.push([v, v + n + 2, v + 1]);
-            m.surfaces.extend([Surface::Rock; 2]);
+            m.materials.extend([Material::Rock; 2]);
         }
     }
     m

@@ -2,7 +2,7 @@
 //! internal simulator (`speleo-simulator`): the rapier3d rover
 //! ([`rover::PhysicsRover`]), the true state it produces ([`BodyState`]),
 //! quaternion helpers, and the terrain it drives on: triangle meshes with a
-//! surface per triangle ([`Mesh`], [`Surface`]), read from PLY, OBJ and STL.
+//! material per triangle ([`Mesh`], [`Material`]), read from PLY, OBJ and STL.
 //!
 //! rapier is built with `enhanced-determinism` and the trigonometry is
 //! `libm`'s pure-Rust code: the same terrain, start and commands give the
@@ -16,4 +16,4 @@ pub mod terrain;
 
 pub use body::BodyState;
 pub use rover::{PhysicsParams, PhysicsRover};
-pub use terrain::{Mesh, Surface};
+pub use terrain::{Material, Mesh};

@@ -7,7 +7,7 @@
 //! stalls instead of spinning through it. Like a real drive's PI velocity
 //! loop, it also tracks the integral of the profile (the position), so a
 //! wheel held at zero under load stands still instead of creeping.
-//! Friction comes from the world's surfaces (mud is slippery).
+//! Friction comes from the world's materials (mud is slippery).
 //!
 //! rapier is built with `enhanced-determinism`: the same world, start and
 //! commands give the same motion, bit for bit, on any machine.
@@ -18,7 +18,7 @@ use rapier3d::prelude::*;
 use crate::body::{BodyState, GRAVITY, WHEELS};
 use crate::chassis_contacts::ChassisContacts;
 use crate::quat::{self, Quat};
-use crate::terrain::{Mesh, Surface};
+use crate::terrain::{Material, Mesh};
 
 /// The simulated rover's build. Defaults: an Asguard-like rover (DFKI's
 /// Asguard series as published: about 1 m long and 0.5 m wide, four
@@ -127,11 +127,11 @@ impl PhysicsParams {
         Ok(())
     }
 
-    fn friction(&self, s: Surface) -> f64 {
+    fn friction(&self, s: Material) -> f64 {
         match s {
-            Surface::Rock | Surface::Boulder => self.friction_rock,
-            Surface::Mud => self.friction_mud,
-            Surface::Concrete => self.friction_concrete,
+            Material::Rock | Material::Boulder => self.friction_rock,
+            Material::Mud => self.friction_mud,
+            Material::Concrete => self.friction_concrete,
         }
     }
 
@@ -358,7 +358,7 @@ impl PhysicsRover {
             }
             for tri in t.indices() {
                 out.triangles.push(tri.map(|i| i + base));
-                out.surfaces.push(Surface::Rock);
+                out.materials.push(Material::Rock);
             }
         }
         out
@@ -622,17 +622,17 @@ fn add_ground(
     added: &mut Vec<ColliderHandle>,
 ) -> Result<(), String> {
     let kinds = [
-        Surface::Rock,
-        Surface::Boulder,
-        Surface::Mud,
-        Surface::Concrete,
+        Material::Rock,
+        Material::Boulder,
+        Material::Mud,
+        Material::Concrete,
     ];
     for kind in kinds {
         let mut map = vec![u32::MAX; mesh.vertices.len()];
         let mut vertices = Vec::new();
         let mut triangles = Vec::new();
         for (t, tri) in mesh.triangles.iter().enumerate() {
-            if mesh.surfaces.get(t).copied().unwrap_or_default() != kind {
+            if mesh.materials.get(t).copied().unwrap_or_default() != kind {
                 continue;
             }
             let mut out = [0u32; 3];
@@ -692,7 +692,7 @@ mod tests {
                 let (a, b, c, d) = (v, v + 1, v + n + 1, v + n + 2);
                 m.triangles.push([a, c, d]);
                 m.triangles.push([a, d, b]);
-                m.surfaces.extend([Surface::Rock; 2]);
+                m.materials.extend([Material::Rock; 2]);
             }
         }
         m

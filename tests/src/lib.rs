@@ -4,8 +4,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use speleo_firmware::cli::{Outputs, ReplayArgs, SimArgs};
-use speleo_firmware::modes;
+use speleo_firmware::args::{Outputs, ReplayArgs, SimArgs};
+use speleo_firmware::commands;
 
 /// Run `speleo sim --route` in this process: the helpers drive the
 /// world's route (a short, known path) rather than exploring.
@@ -33,7 +33,7 @@ pub fn sim_with_trajectory(
     report: Option<&Path>,
     trajectory: Option<&Path>,
 ) -> ExitCode {
-    modes::sim(
+    commands::sim(
         SimArgs {
             world: None,
             start: None,
@@ -58,7 +58,7 @@ pub fn sim_with_trajectory(
 
 /// Run `speleo replay` in this process.
 pub fn replay(log: &Path, report: Option<&Path>) -> ExitCode {
-    modes::replay(
+    commands::replay(
         ReplayArgs {
             log: log.to_path_buf(),
             out: Outputs {

@@ -123,7 +123,7 @@ fn no_component_and_no_message_depends_on_firmware() {
 #[test]
 fn flight_code_does_not_depend_on_the_ground_tools() {
     // The tools build on the flight software, never the reverse: the
-    // binary that flies is the one whose modes the tools drive.
+    // binary that flies is the one whose commands the tools drive.
     let g = graph();
     let flight = [
         "speleo-firmware",

@@ -8,8 +8,8 @@
 //! budget, which sends the rover home early. Also, in a second: a rover
 //! wrecked in a fall ends its mission, and the report says so.
 
-use speleo_firmware::cli::{Outputs, SimArgs};
-use speleo_firmware::modes;
+use speleo_firmware::args::{Outputs, SimArgs};
+use speleo_firmware::commands;
 use std::path::PathBuf;
 
 /// `speleo sim` in `world` (seed 1) for at most `duration_s`, with the
@@ -19,7 +19,7 @@ fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> s
     let config = dir.path().join("mission.toml");
     let report = dir.path().join("r.json");
     std::fs::write(&config, toml).unwrap_or_else(|e| panic!("{e}"));
-    let r = modes::sim_mission(
+    let r = commands::sim_mission(
         SimArgs {
             world: Some(world.into()),
             start: None,

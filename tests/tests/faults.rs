@@ -17,7 +17,7 @@ use speleo_firmware::schedule_table;
 use speleo_hal::{CanBus, Hardware, ImuPort, LidarSource};
 use speleo_scheduler::{Enforcement, FrameClock, Mode, VirtualClock};
 use speleo_tests::{read_json, replay, sim_with_config, Scratch};
-use speleo_twin::{SimHardware, SimParams, TruthProbe};
+use speleo_twin::{TruthProbe, TwinHardware, TwinParams};
 
 enum Fault {
     PowerCut,
@@ -26,7 +26,7 @@ enum Fault {
 
 /// The simulated rover with one fault injected into drive 2 at `at_ns`.
 struct Faulty {
-    sim: SimHardware,
+    sim: TwinHardware,
     at_ns: u64,
     fault: Fault,
     done: bool,
@@ -93,7 +93,7 @@ fn run_frames<C: FrameClock>(
 
 /// 5 s healthy, then 5 s with `fault` in drive 2.
 fn fly(fault: Fault) -> (mission::MissionResult, TruthProbe) {
-    let sim = SimHardware::new(&SimParams::default()).expect("sim");
+    let sim = TwinHardware::new(&TwinParams::default()).expect("sim");
     let truth = sim.truth_probe();
     let mut hw = Faulty {
         sim,
@@ -152,7 +152,7 @@ fn commands_that_go_stale_hold_the_wheels() {
         "[exploration]\nenabled = false\n[tasks.control]\ndivisor = 30\noffset = 1\n",
     )
     .expect("config");
-    let mut sim = SimHardware::new(&SimParams::default()).expect("sim");
+    let mut sim = TwinHardware::new(&TwinParams::default()).expect("sim");
     let truth = sim.truth_probe();
     let r = run_mission(&cfg, &mut sim, &truth);
     // Stale commands are not a failure: no safe mode, but little progress
@@ -179,7 +179,7 @@ const SEQUENCE_S: f64 = 46.0;
 
 /// Simulated hardware with faults, keeping the true track at every frame.
 struct Watched<'a> {
-    hw: FaultyHardware<'a, SimHardware>,
+    hw: FaultyHardware<'a, TwinHardware>,
     truth: TruthProbe,
     /// (time, forward speed, position).
     track: Vec<(u64, f64, [f64; 3])>,
@@ -216,7 +216,7 @@ const S: u64 = 1_000_000_000;
 fn every_fault_is_found_stops_the_rover_and_is_recovered_from() {
     let cfg = Config::from_toml(SEQUENCE).expect("config");
     let specs = faults::parse_all(&cfg.sim.faults).expect("faults");
-    let mut sim = SimHardware::new(&SimParams::default()).expect("sim");
+    let mut sim = TwinHardware::new(&TwinParams::default()).expect("sim");
     let truth = sim.truth_probe();
     let mut hw = Watched {
         hw: FaultyHardware::new(&mut sim, &specs, false),

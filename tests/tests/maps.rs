@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use nalgebra::{Isometry3, Matrix3, Point3, Translation3, UnitQuaternion, Vector3};
-use speleo_firmware::cli::Outputs;
+use speleo_firmware::args::Outputs;
 use speleo_tests::{read_json, Scratch};
 use speleo_tools::args::MeshArgs;
 use speleo_tools::commands::mesh;
@@ -81,8 +81,8 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
     let config = s.path("maps.toml");
     // A TSDF pool of 32k blocks (128 MiB) is plenty for 20 s.
     std::fs::write(&config, "[maps]\ntsdf_max_blocks = 32768\n").unwrap_or_else(|e| panic!("{e}"));
-    speleo_firmware::modes::sim(
-        speleo_firmware::cli::SimArgs {
+    speleo_firmware::commands::sim(
+        speleo_firmware::args::SimArgs {
             world: None,
             start: None,
             seed: Some(SEED),

@@ -9,7 +9,7 @@
 //! over the floor behind it, and the legs caught under its edge. Laid on
 //! the seen ground, the strip only fills the holes.
 
-use speleo_physics::{Mesh, Surface};
+use speleo_physics::{Material, Mesh};
 
 use crate::terrain::Terrain;
 
@@ -173,7 +173,7 @@ fn triangulate_grid(mesh: &mut Mesh, rows: usize, cols: usize) {
             mesh.triangles.push([a, b + 1, a + 1]);
         }
     }
-    mesh.surfaces = vec![Surface::Rock; mesh.triangles.len()];
+    mesh.materials = vec![Material::Rock; mesh.triangles.len()];
 }
 
 /// A vertex just under the seen ground of its column. Where the column

@@ -3,7 +3,7 @@
 
 use speleo_mapping::marching_cubes::MeshBuffers;
 use speleo_mapping::tsdf::{TsdfParams, TsdfVolume, Weighting};
-use speleo_physics::{Mesh, Surface};
+use speleo_physics::{Material, Mesh};
 
 use crate::SimulatorParams;
 
@@ -102,7 +102,7 @@ impl Terrain {
             chunk: Mesh {
                 vertices: Vec::with_capacity(TILE_TRIANGLES),
                 triangles: Vec::with_capacity(TILE_TRIANGLES),
-                surfaces: Vec::with_capacity(TILE_TRIANGLES),
+                materials: Vec::with_capacity(TILE_TRIANGLES),
             },
             lo: [0.0; 3],
             hi: [0.0; 3],
@@ -284,12 +284,12 @@ impl Terrain {
         let m = &self.buffers.mesh;
         self.chunk.vertices.clear();
         self.chunk.triangles.clear();
-        self.chunk.surfaces.clear();
+        self.chunk.materials.clear();
         self.chunk.vertices.extend_from_slice(&m.vertices);
         self.chunk.triangles.extend_from_slice(&m.triangles);
         self.chunk
-            .surfaces
-            .extend(std::iter::repeat_n(Surface::Rock, m.triangles.len()));
+            .materials
+            .extend(std::iter::repeat_n(Material::Rock, m.triangles.len()));
         self.triangles += m.triangles.len();
     }
 

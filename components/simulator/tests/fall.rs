@@ -7,7 +7,7 @@
 mod common;
 
 use common::{run_to_verdict, step_down, straight_plan};
-use speleo_physics::{Mesh, Surface};
+use speleo_physics::{Material, Mesh};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 
 /// From the origin along x to 4 m, over the edge at 1.5 m, on `ground`.
@@ -21,12 +21,12 @@ fn drive(ground: Mesh, drop: f64) -> Verdict {
 
 #[test]
 fn a_rover_that_falls_is_refused_and_one_down_a_step_passes() {
-    let step = drive(step_down(0.0, 1.5, 0.15, Surface::Concrete), 0.15);
+    let step = drive(step_down(0.0, 1.5, 0.15, Material::Concrete), 0.15);
     assert_eq!(step.outcome, Outcome::Reached, "{step:?}");
-    let off = drive(step_down(0.0, 1.5, 1.0, Surface::Concrete), 1.0);
+    let off = drive(step_down(0.0, 1.5, 1.0, Material::Concrete), 1.0);
     assert_eq!(off.outcome, Outcome::TippedOver, "{off:?}");
     // The ground a metre under where the rover was put down.
-    let flat = drive(step_down(-1.0, 1.5, 0.0, Surface::Concrete), 0.0);
+    let flat = drive(step_down(-1.0, 1.5, 0.0, Material::Concrete), 0.0);
     assert_eq!(flat.outcome, Outcome::Fell, "{flat:?}");
     assert_eq!(flat.drive_s, 0.0, "{flat:?}");
 }

@@ -6,7 +6,7 @@
 mod common;
 
 use common::run_to_verdict;
-use speleo_physics::{Mesh, Surface};
+use speleo_physics::{Material, Mesh};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 use speleo_twin::world::shapes::add_box;
 
@@ -17,13 +17,13 @@ fn roof() -> Mesh {
         &mut m,
         [-3.0, -3.0, -1.0],
         [8.0, 0.5, 0.0],
-        Surface::Concrete,
+        Material::Concrete,
     );
     add_box(
         &mut m,
         [-3.0, 0.5, -10.0],
         [8.0, 4.0, -9.0],
-        Surface::Concrete,
+        Material::Concrete,
     );
     m
 }

@@ -7,7 +7,7 @@
 mod common;
 
 use common::run_to_verdict;
-use speleo_physics::{Mesh, Surface};
+use speleo_physics::{Material, Mesh};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 use speleo_twin::world::shapes::add_hexahedron;
 
@@ -30,7 +30,7 @@ fn slope() -> Mesh {
             [8.0, 3.0, 0.0],
             [-6.0, 3.0, 0.0],
         ],
-        Surface::Concrete,
+        Material::Concrete,
     );
     add_hexahedron(
         &mut m,
@@ -44,7 +44,7 @@ fn slope() -> Mesh {
             [4.0, 3.0, top],
             [0.0, 3.0, 0.0],
         ],
-        Surface::Concrete,
+        Material::Concrete,
     );
     m
 }

@@ -5,7 +5,7 @@
 //! 25 times the triangles (a load of ~2,700), a step costs several times
 //! as much, and a batch drives fewer.
 
-use speleo_physics::{Mesh, Surface};
+use speleo_physics::{Material, Mesh};
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance};
 
 /// Flat ground at z = 0 from x = -1 to 2.5 m and y = -0.8 to 0.8 m, of
@@ -27,7 +27,7 @@ fn plane(cell: f64) -> Mesh {
             let v = i * (ny + 1) + j;
             let (a, b, c, d) = (v, v + 1, v + ny + 1, v + ny + 2);
             m.triangles.extend([[a, c, d], [a, d, b]]);
-            m.surfaces.extend([Surface::Rock; 2]);
+            m.materials.extend([Material::Rock; 2]);
         }
     }
     m

@@ -277,20 +277,20 @@ fn a_floor_also_seen_from_the_level_under_it_is_driven_on() {
 /// A flat floor from x = -3 to 12 and, from `ledge_x`, a block `ledge_h`
 /// high (as a world mesh: ground given as it is).
 fn floor_with_ledge(ledge_x: f32, ledge_h: f32) -> speleo_physics::Mesh {
-    use speleo_physics::{Mesh, Surface};
+    use speleo_physics::{Material, Mesh};
     use speleo_twin::world::shapes::add_box;
     let mut m = Mesh::default();
     add_box(
         &mut m,
         [-3.0, -3.0, -0.2],
         [ledge_x, 3.0, 0.0],
-        Surface::Rock,
+        Material::Rock,
     );
     add_box(
         &mut m,
         [ledge_x, -3.0, -0.2],
         [12.0, 3.0, ledge_h],
-        Surface::Rock,
+        Material::Rock,
     );
     m
 }

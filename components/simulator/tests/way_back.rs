@@ -5,7 +5,7 @@
 mod common;
 
 use common::{run_to_verdict, step_down, straight_plan};
-use speleo_physics::Surface;
+use speleo_physics::Material;
 use speleo_simulator::{InternalSim, Outcome, SimulatorParams, Stance, Verdict};
 
 /// The verdict, the prediction and the physics steps taken.
@@ -17,7 +17,7 @@ fn drive(drop: f32, way_back: bool) -> (Verdict, Vec<[f64; 3]>, u64) {
     let start = Stance::level(0.0, 0.0, p.base_height_m, 0.0);
     let mut sim = InternalSim::new(p).expect("sim");
     // A floor at z = 0 up to x = 2, and `drop` lower beyond; 5 m along x.
-    let ground = step_down(0.0, 2.0, drop, Surface::Rock);
+    let ground = step_down(0.0, 2.0, drop, Material::Rock);
     sim.begin_on(start, straight_plan(5.0, 2.0, drop as f64), ground);
     if way_back {
         sim.check_way_back();

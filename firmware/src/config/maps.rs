@@ -20,7 +20,7 @@ pub struct MapsConfig {
     /// Cells the MLS map holds (two maps: one is rebuilt while the other
     /// serves).
     pub mls_max_cells: usize,
-    /// Surface levels a cell holds; a point of one more is dropped and
+    /// Material levels a cell holds; a point of one more is dropped and
     /// counted. Eight: with four, a garage mission dropped 96,727 points,
     /// and 7 m up the roof ramp the cell its safety monitor stopped for
     /// (a drop ahead) held four patches, the floor to the level under,

@@ -13,8 +13,8 @@ use std::time::{Duration, Instant};
 use speleo_hal::replay::ReplayHardware;
 use speleo_hal::{CanBus, CanFrame, Device, HalError, Hardware, ImuPort, InputSink, LidarSource};
 use speleo_scheduler::FrameClock;
-use speleo_twin::drives::SimDrives;
-use speleo_twin::SimHardware;
+use speleo_twin::drives::DrivesTwin;
+use speleo_twin::TwinHardware;
 
 use super::FaultSpec;
 
@@ -26,13 +26,13 @@ pub const STORM_POLL: Duration = Duration::from_millis(3);
 /// Hardware that faults can be injected into.
 pub trait FaultTarget: Hardware {
     /// The simulated drives, when the hardware is simulated.
-    fn sim_drives(&mut self) -> Option<&mut SimDrives> {
+    fn sim_drives(&mut self) -> Option<&mut DrivesTwin> {
         None
     }
 }
 
-impl FaultTarget for SimHardware {
-    fn sim_drives(&mut self) -> Option<&mut SimDrives> {
+impl FaultTarget for TwinHardware {
+    fn sim_drives(&mut self) -> Option<&mut DrivesTwin> {
         Some(self.drives_mut())
     }
 }

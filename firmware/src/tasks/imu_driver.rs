@@ -89,14 +89,14 @@ mod tests {
     use super::*;
     use speleo_hal::ImuPort;
     use speleo_physics::BodyState;
-    use speleo_twin::imu::{ImuParams, SimImu};
+    use speleo_twin::imu::{ImuParams, ImuTwin};
 
     use crate::tasks::test_context as cx;
 
     #[test]
     fn a_sample_is_dated_before_its_message_crossed_the_line() {
         let mut bus = Bus::new();
-        let mut imu = SimImu::new(ImuParams::default(), 1);
+        let mut imu = ImuTwin::new(ImuParams::default(), 1);
         let baud = ImuParams::default().baud;
         let mut driver = ImuDriver::new(100, 100_000_000, 5, baud);
         let taken_ns = 10_000_000;

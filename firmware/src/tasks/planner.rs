@@ -18,8 +18,8 @@ use speleo_simulator::InternalSim;
 use crate::bus::Bus;
 use crate::config::{Config, PlannerConfig};
 use crate::params;
-use crate::sim_clouds::MapClouds;
-use crate::sim_host::{SimHost, SimWorker};
+use crate::simulator_clouds::MapClouds;
+use crate::simulator_host::{SimulatorHost, SimulatorWorker};
 use crate::validation_dump::ValidationDump;
 
 /// A step this long on the thread's CPU clock is logged (debug), ns.
@@ -28,7 +28,7 @@ const SLOW_STEP_NS: u64 = 1_000_000;
 pub struct PlannerTask {
     pub nav: Navigator,
     /// The internal simulator's worker and the validations' record.
-    pub host: SimHost,
+    pub host: SimulatorHost,
     /// The LiDAR mount (base <- sensor): the keyframe clouds' frame.
     mount: Pose,
     /// Each phase's step times (by [`STEP_PHASES`]), for calibrating its
@@ -48,7 +48,7 @@ impl PlannerTask {
     pub fn new(
         nav: Navigator,
         step_units: [u32; STEP_PHASES.len()],
-        host: SimHost,
+        host: SimulatorHost,
         mount: Pose,
     ) -> Self {
         PlannerTask {
@@ -98,7 +98,7 @@ impl PlannerTask {
             cfg.control.looped,
             params::base_height_m(cfg),
         )?;
-        let mut host = SimHost::default();
+        let mut host = SimulatorHost::default();
         if on && cfg.exploration.enabled {
             nav = nav.with_exploration(exploration(cfg, &mut host)?);
         }
@@ -114,7 +114,7 @@ impl PlannerTask {
 /// The exploration `[exploration]` describes, every plan first driven in
 /// the internal simulation (hosted on its worker core by `host`) when
 /// `[simulator]` is on.
-fn exploration(cfg: &Config, host: &mut SimHost) -> Result<Exploration, String> {
+fn exploration(cfg: &Config, host: &mut SimulatorHost) -> Result<Exploration, String> {
     let e = &cfg.exploration;
     let mut ex = Exploration::new(
         e.explorer_params(),
@@ -125,7 +125,7 @@ fn exploration(cfg: &Config, host: &mut SimHost) -> Result<Exploration, String> 
     if cfg.simulator.enabled {
         ex = ex.with_simulator(InternalSim::new(params::simulator(cfg))?);
         if cfg.simulator.worker_units > 0 {
-            let w = SimWorker::spawn(cfg.simulator.worker_units, cfg.simulator.dt_s, slot())
+            let w = SimulatorWorker::spawn(cfg.simulator.worker_units, cfg.simulator.dt_s, slot())
                 .map_err(|e| format!("the simulator's worker: {e}"))?;
             host.worker = Some(w);
         }

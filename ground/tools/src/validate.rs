@@ -301,8 +301,8 @@ pub fn crop(mesh: &Mesh, start: [f64; 3], plan: &[[f64; 4]], margin: f64) -> Mes
             *n = *slot;
         }
         out.triangles.push(new);
-        out.surfaces
-            .push(mesh.surfaces.get(t).copied().unwrap_or_default());
+        out.materials
+            .push(mesh.materials.get(t).copied().unwrap_or_default());
     }
     out
 }
@@ -377,7 +377,7 @@ mod tests {
                 [0.0, 90.0, 0.0],
             ],
             triangles: vec![[0, 1, 2], [1, 3, 2], [3, 3, 3], [4, 5, 6]],
-            surfaces: vec![Default::default(); 4],
+            materials: vec![Default::default(); 4],
         };
         let c = crop(&m, [0.0; 3], &[[1.0, 1.0, 0.0, 0.0]], 1.0);
         assert_eq!(

@@ -73,7 +73,7 @@ struct Drive {
     last_angle_rad: f64,
 }
 
-pub struct SimDrives {
+pub struct DrivesTwin {
     p: DriveParams,
     drives: [Drive; WHEELS],
     outbox: Outbox<64, 16>,
@@ -81,9 +81,9 @@ pub struct SimDrives {
     now_ns: u64,
 }
 
-impl SimDrives {
+impl DrivesTwin {
     pub fn new(p: DriveParams) -> Self {
-        SimDrives {
+        DrivesTwin {
             p: p.clone(),
             drives: [Drive {
                 state: DriveState::SwitchOnDisabled,
@@ -430,8 +430,8 @@ mod tests {
     use super::*;
 
     /// Boot the drives, set profile velocity mode and start them.
-    fn started() -> SimDrives {
-        let mut s = SimDrives::new(DriveParams::default());
+    fn started() -> DrivesTwin {
+        let mut s = DrivesTwin::new(DriveParams::default());
         s.tick(20_000_000);
         for node in 1..=4u8 {
             s.receive(
@@ -474,7 +474,7 @@ mod tests {
     }
 
     /// Enable drive `node` and command it `mrad_s` at `t`.
-    fn enable(s: &mut SimDrives, node: u8, t: u64, mrad_s: i32) {
+    fn enable(s: &mut DrivesTwin, node: u8, t: u64, mrad_s: i32) {
         for cw in [0x0006u16, 0x0007, 0x000F] {
             s.receive(t, &cia402::rpdo1(node, cw, mrad_s));
         }
@@ -513,7 +513,7 @@ mod tests {
         let mut s = started();
         enable(&mut s, 3, 20_000_000, 0);
         s.inject_fault_until(2, 1_000_000_000);
-        let reset = |s: &mut SimDrives, t: u64| {
+        let reset = |s: &mut DrivesTwin, t: u64| {
             s.receive(t, &cia402::rpdo1(3, 0x0000, 0));
             s.receive(t, &cia402::rpdo1(3, 0x0080, 0));
         };
@@ -581,7 +581,7 @@ mod tests {
 
     #[test]
     fn boot_up_heartbeat_and_sdo() {
-        let mut s = SimDrives::new(DriveParams::default());
+        let mut s = DrivesTwin::new(DriveParams::default());
         s.tick(0);
         assert!(s.outbox().pop_due(u64::MAX).is_none(), "still booting");
         s.tick(20_000_000);

@@ -50,7 +50,7 @@ impl Default for ImuParams {
     }
 }
 
-pub struct SimImu {
+pub struct ImuTwin {
     p: ImuParams,
     noise: Noise,
     period_ns: u64,
@@ -89,7 +89,7 @@ fn supported(id: u16) -> bool {
     )
 }
 
-impl SimImu {
+impl ImuTwin {
     pub fn new(p: ImuParams, seed: u64) -> Self {
         let mut noise = Noise::new(seed, 0x1_0001);
         let gyro_bias = [
@@ -99,7 +99,7 @@ impl SimImu {
         ];
         let period_ns = 1_000_000_000 / p.rate_hz.max(1) as u64;
         let [roll, pitch, yaw] = p.misalignment_rpy;
-        SimImu {
+        ImuTwin {
             next_sample_ns: p.phase_ns,
             p,
             noise,
@@ -295,7 +295,7 @@ mod tests {
             misalignment_rpy,
             ..ImuParams::default()
         };
-        let mut imu = SimImu::new(p, 7);
+        let mut imu = ImuTwin::new(p, 7);
         let rest = BodyState::default();
         let mut sum = [0.0; 3];
         let mut q = quat::IDENTITY;

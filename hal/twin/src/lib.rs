@@ -37,7 +37,7 @@ const STEP_NS: u64 = 1_000_000;
 
 /// Everything configurable about the simulated hardware.
 #[derive(Clone, Debug, PartialEq)]
-pub struct SimParams {
+pub struct TwinParams {
     pub seed: u64,
     /// The flat-ground kinematic model (used when `physics` is none).
     pub rover: RoverParams,
@@ -56,9 +56,9 @@ pub struct SimParams {
     pub start_on_ground: bool,
 }
 
-impl Default for SimParams {
+impl Default for TwinParams {
     fn default() -> Self {
-        SimParams {
+        TwinParams {
             seed: 1,
             rover: RoverParams::default(),
             physics: Some(PhysicsParams::default()),
@@ -90,12 +90,12 @@ pub struct Strikes {
 }
 
 /// The simulated rover and its devices.
-pub struct SimHardware {
+pub struct TwinHardware {
     t_ns: u64,
     truth: TruthProbe,
     motion: Motion,
-    imu: imu::SimImu,
-    drives: drives::SimDrives,
+    imu: imu::ImuTwin,
+    drives: drives::DrivesTwin,
     lidar: LidarTwin,
     mount: lidar::SensorPose,
 }
@@ -125,19 +125,19 @@ impl Motion {
 /// The LiDAR twin, or none.
 enum LidarTwin {
     Off,
-    On(Box<lidar::SimLidar>),
+    On(Box<lidar::LidarTwin>),
 }
 
-impl SimHardware {
+impl TwinHardware {
     /// Simulated hardware on flat ground.
-    pub fn new(p: &SimParams) -> Result<Self, String> {
+    pub fn new(p: &TwinParams) -> Result<Self, String> {
         let flat = crate::world::World::build("flat", p.seed).map_err(|e| e.to_string())?;
         Self::with_world(p, &flat)
     }
 
     /// Simulated hardware in `world`: the rover at the world's start, the
     /// LiDAR twin (when `p.lidar` is set) casting rays against its mesh.
-    pub fn with_world(p: &SimParams, world: &crate::world::World) -> Result<Self, String> {
+    pub fn with_world(p: &TwinParams, world: &crate::world::World) -> Result<Self, String> {
         let motion = match &p.physics {
             Some(pp) => {
                 let (start, tilt) = if p.start_on_ground {
@@ -169,7 +169,7 @@ impl SimHardware {
         let lidar = match &p.lidar {
             Some(lp) => {
                 let w = std::sync::Arc::new(lidar::LidarWorld::new(&world.mesh)?);
-                LidarTwin::On(Box::new(lidar::SimLidar::new(
+                LidarTwin::On(Box::new(lidar::LidarTwin::new(
                     lp.clone(),
                     speleo_hal::hdl32e::Calibration::nominal(),
                     w,
@@ -180,12 +180,12 @@ impl SimHardware {
         };
         let [mx, my, mz, roll, pitch, yaw] = p.lidar_mount;
         let first = motion.state(0);
-        Ok(SimHardware {
+        Ok(TwinHardware {
             t_ns: 0,
             truth: std::rc::Rc::new(std::cell::Cell::new(first)),
             motion,
-            imu: imu::SimImu::new(p.imu.clone(), p.seed),
-            drives: drives::SimDrives::new(p.drives.clone()),
+            imu: imu::ImuTwin::new(p.imu.clone(), p.seed),
+            drives: drives::DrivesTwin::new(p.drives.clone()),
             lidar,
             mount: lidar::SensorPose {
                 p: [mx, my, mz],
@@ -230,7 +230,7 @@ impl SimHardware {
     }
 
     /// The drives, for fault injection.
-    pub fn drives_mut(&mut self) -> &mut drives::SimDrives {
+    pub fn drives_mut(&mut self) -> &mut drives::DrivesTwin {
         &mut self.drives
     }
 
@@ -244,7 +244,7 @@ impl SimHardware {
     }
 }
 
-impl SimHardware {
+impl TwinHardware {
     /// Step the rover and its devices through every physics step that ends
     /// by `until_ns`, aiming the LiDAR's firings on the way.
     fn step_to(&mut self, until_ns: u64) {
@@ -268,7 +268,7 @@ impl SimHardware {
     }
 }
 
-impl Hardware for SimHardware {
+impl Hardware for TwinHardware {
     fn advance_to(&mut self, now_ns: u64) {
         self.step_to(now_ns);
         // The frame's rays in one batch, on two cores; those launched by
@@ -321,7 +321,7 @@ fn deliver<const N: usize, const M: usize>(
     }
 }
 
-impl CanBus for drives::SimDrives {
+impl CanBus for drives::DrivesTwin {
     fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
         deliver(self.outbox(), Device::Can, now_ns, sink);
         Ok(())
@@ -332,7 +332,7 @@ impl CanBus for drives::SimDrives {
     }
 }
 
-impl ImuPort for imu::SimImu {
+impl ImuPort for imu::ImuTwin {
     fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
         deliver(self.outbox(), Device::Imu, now_ns, sink);
         Ok(())

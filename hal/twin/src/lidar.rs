@@ -27,7 +27,7 @@ use speleo_hal::hdl32e::encode::{Firing, PacketEncoder};
 use speleo_hal::hdl32e::{Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS, PACKET_LEN};
 use speleo_hal::outbox::Outbox;
 use speleo_physics::quat::{self, Quat};
-use speleo_physics::terrain::{Mesh, Surface};
+use speleo_physics::terrain::{Material, Mesh};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct LidarParams {
@@ -58,17 +58,17 @@ impl Default for LidarParams {
     }
 }
 
-/// The world as the LiDAR sees it: triangles with their surfaces.
+/// The world as the LiDAR sees it: triangles with their materials.
 pub struct LidarWorld {
     /// For distances to the surface, and the reference for `bvh`'s rays.
     mesh: TriMesh,
     /// What the rays are cast against: an eight-way compressed BVH
     /// (obvhs), which walks the rays from inside a cave ~1.4x faster than
     /// parry's BVH of the same mesh (`cargo bench -p speleo-twin --bench
-    /// sim_lidar`), and the triangles in its leaf order.
+    /// lidar_twin`), and the triangles in its leaf order.
     bvh: CwBvh,
     leaf_triangles: Vec<Triangle>,
-    surfaces: Vec<Surface>,
+    materials: Vec<Material>,
     /// Unit normal of each triangle (for the incidence angle).
     normals: Vec<[f32; 3]>,
 }
@@ -112,7 +112,7 @@ impl LidarWorld {
             mesh,
             bvh,
             leaf_triangles,
-            surfaces: m.surfaces.clone(),
+            materials: m.materials.clone(),
             normals,
         })
     }
@@ -128,10 +128,10 @@ impl LidarWorld {
 
     /// Distance along the unit direction `dir` to the first surface within
     /// `max`, with the cosine of the incidence angle and the surface.
-    pub fn cast(&self, origin: [f64; 3], dir: [f64; 3], max: f64) -> Option<(f64, f64, Surface)> {
+    pub fn cast(&self, origin: [f64; 3], dir: [f64; 3], max: f64) -> Option<(f64, f64, Material)> {
         let (toi, t) = self.hit(origin, dir, max)?;
         let cos = self.facing(t, dir).abs();
-        let surface = self.surfaces.get(t).copied().unwrap_or_default();
+        let surface = self.materials.get(t).copied().unwrap_or_default();
         Some((toi, cos, surface))
     }
 
@@ -230,12 +230,12 @@ impl SensorPose {
     }
 }
 
-fn intensity(s: Surface, cos: f64) -> u8 {
+fn intensity(s: Material, cos: f64) -> u8 {
     let albedo = match s {
-        Surface::Rock => 60.0,
-        Surface::Mud => 25.0,
-        Surface::Boulder => 90.0,
-        Surface::Concrete => 110.0,
+        Material::Rock => 60.0,
+        Material::Mud => 25.0,
+        Material::Boulder => 90.0,
+        Material::Concrete => 110.0,
     };
     (albedo * (0.2 + 0.8 * cos)).round().clamp(1.0, 255.0) as u8
 }
@@ -253,7 +253,7 @@ struct QueuedFiring {
     noise: [f32; LASERS],
 }
 
-pub struct SimLidar {
+pub struct LidarTwin {
     p: LidarParams,
     encoder: PacketEncoder,
     caster: RayCaster,
@@ -273,7 +273,7 @@ pub struct SimLidar {
     pub out_of_range: u64,
 }
 
-impl SimLidar {
+impl LidarTwin {
     pub fn new(p: LidarParams, cal: Calibration, world: Arc<LidarWorld>, seed: u64) -> Self {
         let elevation = core::array::from_fn(|l| {
             let e = cal.lasers[l].vert_deg.to_radians();
@@ -287,7 +287,7 @@ impl SimLidar {
             (libm::sin(d), libm::cos(d))
         });
         let head = Head { elevation, offset };
-        SimLidar {
+        LidarTwin {
             caster: RayCaster::new(world, head, QUEUED_FIRINGS, p.cast_threads),
             p,
             firings: Vec::with_capacity(QUEUED_FIRINGS),
@@ -399,7 +399,7 @@ impl SimLidar {
             return;
         }
         self.launched = false;
-        let SimLidar {
+        let LidarTwin {
             p,
             encoder,
             caster,
@@ -445,7 +445,7 @@ mod tests {
 
     fn revolution(world: &World, pose: SensorPose) -> Vec<speleo_hal::hdl32e::Point> {
         let lw = Arc::new(LidarWorld::new(&world.mesh).expect("mesh"));
-        let mut l = SimLidar::new(LidarParams::default(), Calibration::nominal(), lw, 3);
+        let mut l = LidarTwin::new(LidarParams::default(), Calibration::nominal(), lw, 3);
         let mut asm = FrameAssembler::new(Decoder::new(&Calibration::nominal()), 0.0, 200_000);
         let mut frames = Vec::new();
         for k in 0..250u64 {
@@ -586,7 +586,7 @@ mod tests {
                 cast_threads: threads,
                 ..LidarParams::default()
             };
-            let mut l = SimLidar::new(p, Calibration::nominal(), lw.clone(), 4);
+            let mut l = LidarTwin::new(p, Calibration::nominal(), lw.clone(), 4);
             let mut packets = Vec::new();
             for k in 0..300u64 {
                 l.queue(k * 1_000_000, (k + 1) * 1_000_000, &pose(k), &pose(k + 1));

@@ -79,7 +79,7 @@ pub fn standing(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::{shapes, Surface};
+    use crate::world::{shapes, Material};
 
     /// A ramp rising `rise` m over 10 m along x, from x = 0.
     fn ramp(rise: f32) -> Mesh {
@@ -88,13 +88,13 @@ mod tests {
             [0.0, -5.0, 0.0],
             [10.0, -5.0, rise],
             [10.0, 5.0, rise],
-            Surface::Rock,
+            Material::Rock,
         );
         m.push_triangle(
             [0.0, -5.0, 0.0],
             [10.0, 5.0, rise],
             [0.0, 5.0, 0.0],
-            Surface::Rock,
+            Material::Rock,
         );
         m
     }
@@ -132,13 +132,13 @@ mod tests {
             &mut m,
             [-5.0, -5.0, -0.2],
             [5.0, 5.0, 0.0],
-            Surface::Concrete,
+            Material::Concrete,
         );
         shapes::add_box(
             &mut m,
             [-5.0, -5.0, 2.8],
             [5.0, 5.0, 3.0],
-            Surface::Concrete,
+            Material::Concrete,
         );
         assert_eq!(ground_height(&m, 1.0, 1.0, 0.0), Some(0.0));
         assert_eq!(ground_height(&m, 1.0, 1.0, 3.0), Some(3.0));

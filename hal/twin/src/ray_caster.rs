@@ -26,10 +26,10 @@ use std::thread::JoinHandle;
 use crate::lidar::LidarWorld;
 use speleo_hal::hdl32e::LASERS;
 use speleo_physics::quat;
-use speleo_physics::terrain::Surface;
+use speleo_physics::terrain::Material;
 
 /// What a ray met: distance, cosine of the incidence angle and surface.
-pub type RayReturn = Option<(f64, f64, Surface)>;
+pub type RayReturn = Option<(f64, f64, Material)>;
 
 /// Where one firing's lasers point: the lasers that fire, the sensor's
 /// position at the first and after the last laser, its orientation

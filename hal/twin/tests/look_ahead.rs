@@ -5,7 +5,7 @@
 use speleo_hal::{Device, Hardware, InputSink};
 use speleo_twin::lidar::LidarParams;
 use speleo_twin::world::World;
-use speleo_twin::{SimHardware, SimParams};
+use speleo_twin::{TwinHardware, TwinParams};
 
 /// Every input with its device and time, in order.
 #[derive(Default)]
@@ -19,14 +19,14 @@ impl InputSink for Log {
 
 fn run(look_ahead: bool, threads: usize) -> (Log, [f64; 3]) {
     let world = World::build("lava-tube", 1).expect("tube");
-    let params = SimParams {
+    let params = TwinParams {
         lidar: Some(LidarParams {
             cast_threads: threads,
             ..LidarParams::default()
         }),
-        ..SimParams::default()
+        ..TwinParams::default()
     };
-    let mut hw = SimHardware::with_world(&params, &world).expect("hardware");
+    let mut hw = TwinHardware::with_world(&params, &world).expect("hardware");
     let mut log = Log::default();
     let frame = 10_000_000;
     for k in 0..60u64 {

@@ -4,7 +4,7 @@
 
 use speleo_physics::body::{BodyState, GRAVITY, WHEELS};
 use speleo_physics::rover::{PhysicsParams, PhysicsRover};
-use speleo_physics::terrain::{Mesh, Surface};
+use speleo_physics::terrain::{Material, Mesh};
 use speleo_twin::rover::wrap_angle;
 use speleo_twin::world::World;
 
@@ -177,7 +177,7 @@ fn grid_of(side: f64, cell: f64, z: impl Fn(f64, f64) -> f64) -> Mesh {
             let (a, b, c, d) = (v, v + 1, v + n + 1, v + n + 2);
             m.triangles.push([a, c, d]);
             m.triangles.push([a, d, b]);
-            m.surfaces.extend([Surface::Rock; 2]);
+            m.materials.extend([Material::Rock; 2]);
         }
     }
     m

@@ -10,7 +10,7 @@ use thiserror::Error;
 
 /// What a triangle is made of (the physics picks friction by it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
-pub enum Surface {
+pub enum Material {
     #[default]
     Rock,
     Mud,
@@ -18,17 +18,17 @@ pub enum Surface {
     Concrete,
 }
 
-impl Surface {
+impl Material {
     pub fn code(self) -> u8 {
         self as u8
     }
 
-    pub fn from_code(c: u8) -> Surface {
+    pub fn from_code(c: u8) -> Material {
         match c {
-            1 => Surface::Mud,
-            2 => Surface::Boulder,
-            3 => Surface::Concrete,
-            _ => Surface::Rock,
+            1 => Material::Mud,
+            2 => Material::Boulder,
+            3 => Material::Concrete,
+            _ => Material::Rock,
         }
     }
 }
@@ -38,7 +38,7 @@ pub struct Mesh {
     pub vertices: Vec<[f32; 3]>,
     pub triangles: Vec<[u32; 3]>,
     /// One per triangle.
-    pub surfaces: Vec<Surface>,
+    pub materials: Vec<Material>,
 }
 
 #[derive(Debug, Error)]
@@ -92,15 +92,15 @@ impl Mesh {
         self.vertices.extend_from_slice(&other.vertices);
         self.triangles
             .extend(other.triangles.iter().map(|t| t.map(|i| i + base)));
-        self.surfaces.extend_from_slice(&other.surfaces);
+        self.materials.extend_from_slice(&other.materials);
     }
 
     /// Add a triangle over new vertices.
-    pub fn push_triangle(&mut self, a: [f32; 3], b: [f32; 3], c: [f32; 3], s: Surface) {
+    pub fn push_triangle(&mut self, a: [f32; 3], b: [f32; 3], c: [f32; 3], s: Material) {
         let i = self.vertices.len() as u32;
         self.vertices.extend_from_slice(&[a, b, c]);
         self.triangles.push([i, i + 1, i + 2]);
-        self.surfaces.push(s);
+        self.materials.push(s);
     }
 
     /// Area and unit normal of triangle `t` (normal zero if degenerate).
@@ -152,7 +152,7 @@ impl Mesh {
         stats.welded_vertices = self.vertices.len() - verts.len();
         let mut tris = Vec::with_capacity(self.triangles.len());
         let mut surf = Vec::with_capacity(self.triangles.len());
-        for (t, s) in self.triangles.iter().zip(self.surfaces.iter()) {
+        for (t, s) in self.triangles.iter().zip(self.materials.iter()) {
             let [a, b, c] = t.map(|i| remap[i as usize]);
             let degenerate = a == b || b == c || a == c || {
                 let n = cross(
@@ -183,7 +183,7 @@ impl Mesh {
         stats.unused_vertices = verts.len() - compact.len();
         self.vertices = compact;
         self.triangles = tris;
-        self.surfaces = surf;
+        self.materials = surf;
         stats
     }
 
@@ -234,7 +234,7 @@ impl Mesh {
                 buf.extend_from_slice(&x.to_le_bytes());
             }
         }
-        for (t, s) in self.triangles.iter().zip(&self.surfaces) {
+        for (t, s) in self.triangles.iter().zip(&self.materials) {
             buf.push(3);
             for i in t {
                 buf.extend_from_slice(&(*i as i32).to_le_bytes());
@@ -266,22 +266,22 @@ mod tests {
     #[test]
     fn cleaning_welds_and_drops() {
         let mut m = Mesh::default();
-        m.push_triangle([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], Surface::Rock);
+        m.push_triangle([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], Material::Rock);
         m.push_triangle(
             [1.0, 0.0, 0.0],
             [1.0, 1.0, 0.0],
             [0.0, 1.0, 0.0],
-            Surface::Mud,
+            Material::Mud,
         );
         // Degenerate: a line.
-        m.push_triangle([0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], Surface::Rock);
+        m.push_triangle([0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], Material::Rock);
         let s = m.clean(1e-6);
         assert_eq!(m.vertices.len(), 4);
         assert_eq!(m.triangles.len(), 2);
         assert_eq!(s.degenerate_triangles, 1);
         assert_eq!(s.welded_vertices, 9 - 5);
         assert_eq!(s.unused_vertices, 1);
-        assert_eq!(m.surfaces, vec![Surface::Rock, Surface::Mud]);
+        assert_eq!(m.materials, vec![Material::Rock, Material::Mud]);
         let (area, n) = m.triangle_geometry(0);
         assert!((area - 0.5).abs() < 1e-12);
         assert_eq!(n, [0.0, 0.0, 1.0]);

@@ -7,4 +7,4 @@ pub mod obj;
 pub mod ply;
 pub mod stl;
 
-pub use mesh::{CleanStats, Mesh, MeshError, Surface};
+pub use mesh::{CleanStats, Material, Mesh, MeshError};

@@ -2,7 +2,7 @@
 //! `/texture/normal` parts, negative indices relative to the end); polygons
 //! are split into fans; every other statement is skipped.
 
-use super::mesh::{Mesh, MeshError, Surface};
+use super::mesh::{Material, Mesh, MeshError};
 
 fn err(line: usize, why: impl Into<String>) -> MeshError {
     MeshError::Format(format!("OBJ line {line}: {}", why.into()))
@@ -45,7 +45,7 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, MeshError> {
                 }
                 for k in 1..poly.len() - 1 {
                     m.triangles.push([poly[0], poly[k], poly[k + 1]]);
-                    m.surfaces.push(Surface::Rock);
+                    m.materials.push(Material::Rock);
                 }
             }
             _ => {}

@@ -3,7 +3,7 @@
 //! are kept, polygons are split into triangle fans, everything else is
 //! skipped by its declared type.
 
-use super::mesh::{reserve_for, Mesh, MeshError, Surface};
+use super::mesh::{reserve_for, Material, Mesh, MeshError};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Ty {
@@ -203,7 +203,7 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, MeshError> {
         }
         for _ in 0..e.count {
             let mut xyz = [0f32; 3];
-            let mut surface = Surface::Rock;
+            let mut surface = Material::Rock;
             for p in &e.props {
                 match p {
                     Prop::Scalar(name, ty) => {
@@ -212,7 +212,7 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, MeshError> {
                             (true, _, "x") => xyz[0] = v as f32,
                             (true, _, "y") => xyz[1] = v as f32,
                             (true, _, "z") => xyz[2] = v as f32,
-                            (_, true, "surface") => surface = Surface::from_code(v as u8),
+                            (_, true, "surface") => surface = Material::from_code(v as u8),
                             _ => {}
                         }
                     }
@@ -247,9 +247,9 @@ pub fn parse(bytes: &[u8]) -> Result<Mesh, MeshError> {
                 mesh.vertices.push(xyz);
             }
             if is_face {
-                // Surface applies to every triangle of this face.
-                let added = mesh.triangles.len() - mesh.surfaces.len();
-                mesh.surfaces.extend(std::iter::repeat_n(surface, added));
+                // Material applies to every triangle of this face.
+                let added = mesh.triangles.len() - mesh.materials.len();
+                mesh.materials.extend(std::iter::repeat_n(surface, added));
             }
         }
     }
@@ -281,7 +281,7 @@ mod tests {
     #[test]
     fn binary_round_trip_through_the_writer() {
         let mut m = Mesh::default();
-        m.push_triangle([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5], Surface::Mud);
+        m.push_triangle([0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.5], Material::Mud);
         let mut out = Vec::new();
         m.write_ply(&mut out).expect("writes");
         let back = parse(&out).expect("parses");

@@ -1,7 +1,7 @@
 //! STL reader, binary and ASCII. Every facet brings its own three vertices;
 //! cleaning welds them.
 
-use super::mesh::{reserve_for, Mesh, MeshError, Surface};
+use super::mesh::{reserve_for, Material, Mesh, MeshError};
 
 fn err(why: impl Into<String>) -> MeshError {
     MeshError::Format(format!("STL: {}", why.into()))
@@ -36,7 +36,7 @@ fn binary(bytes: &[u8], n: usize) -> Mesh {
                 |i: usize| f32::from_le_bytes([f[o + i], f[o + i + 1], f[o + i + 2], f[o + i + 3]]);
             [r(0), r(4), r(8)]
         };
-        m.push_triangle(v(0), v(1), v(2), Surface::Rock);
+        m.push_triangle(v(0), v(1), v(2), Material::Rock);
     }
     m
 }
@@ -67,7 +67,7 @@ fn ascii(text: &str) -> Result<Mesh, MeshError> {
                         corner.len()
                     )));
                 }
-                m.push_triangle(corner[0], corner[1], corner[2], Surface::Rock);
+                m.push_triangle(corner[0], corner[1], corner[2], Material::Rock);
                 corner.clear();
             }
             _ => {}

@@ -2,13 +2,13 @@
 
 #![allow(dead_code)] // each test file uses its own part
 
-use speleo_physics::{Mesh, Surface};
+use speleo_physics::{Material, Mesh};
 use speleo_simulator::{InternalSim, Verdict};
 use speleo_twin::world::shapes::add_box;
 
 /// A floor with its top at `top` up to x = `edge`, and `drop` lower from
 /// there to x = 12, each a metre thick, 6 m wide.
-pub fn step_down(top: f32, edge: f32, drop: f32, surface: Surface) -> Mesh {
+pub fn step_down(top: f32, edge: f32, drop: f32, surface: Material) -> Mesh {
     let mut m = Mesh::default();
     add_box(&mut m, [-3.0, -3.0, top - 1.0], [edge, 3.0, top], surface);
     let low = top - drop;

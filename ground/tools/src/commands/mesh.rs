@@ -45,7 +45,7 @@ fn mesh_recording(
     out: &Path,
     progress: bool,
 ) -> Result<crate::mesh::MeshReport, Error> {
-    let result = speleo_firmware::modes::replay_for_maps(log, progress)?;
+    let result = speleo_firmware::commands::replay_for_maps(log, progress)?;
     let Some(maps) = &result.maps else {
         return Err(format!(
             "{}: SLAM is off in the recorded configuration",

@@ -21,7 +21,7 @@ use std::process::ExitCode;
 
 use serde::Serialize;
 
-use speleo_firmware::cli::Outputs;
+use speleo_firmware::args::Outputs;
 use speleo_firmware::config::{Config, STEP_PHASES};
 use speleo_firmware::mission::{MissionResult, TaskFigures};
 mod calibration;
@@ -191,7 +191,7 @@ fn run_scenario(s: &Scenario, base: &Config, progress: bool) -> Result<ScenarioR
     cfg.sim.duration_s = s.duration_s;
     (s.configure)(&mut cfg);
     if !s.replay {
-        let r = speleo_firmware::modes::simulate(&mut cfg, &Outputs::default(), progress)?;
+        let r = speleo_firmware::commands::simulate(&mut cfg, &Outputs::default(), progress)?;
         return Ok(judge(s, &r));
     }
     let dir = std::env::temp_dir().join(format!("speleo-wcet-{}", std::process::id()));
@@ -201,8 +201,8 @@ fn run_scenario(s: &Scenario, base: &Config, progress: bool) -> Result<ScenarioR
         record: Some(log.clone()),
         ..Outputs::default()
     };
-    speleo_firmware::modes::simulate(&mut cfg, &recorded, progress)?;
-    let replayed = speleo_firmware::modes::replay_recording(&log, &Outputs::default(), progress);
+    speleo_firmware::commands::simulate(&mut cfg, &recorded, progress)?;
+    let replayed = speleo_firmware::commands::replay_recording(&log, &Outputs::default(), progress);
     let _ = std::fs::remove_dir_all(&dir);
     let r = replayed?;
     if let Some(d) = r.divergence {

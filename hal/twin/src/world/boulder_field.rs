@@ -5,7 +5,7 @@
 
 use super::noise::uniform;
 use super::shapes::{add_box, add_rock};
-use speleo_physics::terrain::{Mesh, Surface};
+use speleo_physics::terrain::{Material, Mesh};
 
 pub const SIZE_X: f64 = 16.0;
 pub const SIZE_Y: f64 = 10.0;
@@ -30,7 +30,7 @@ pub fn generate(seed: u64) -> BoulderField {
         &mut mesh,
         [-1.0, -1.0, -0.5],
         [(SIZE_X + 1.0) as f32, (SIZE_Y + 1.0) as f32, 0.0],
-        Surface::Rock,
+        Material::Rock,
     );
     let mut boulders: Vec<[f64; 3]> = Vec::new();
     let mut covered = 0.0;

@@ -4,7 +4,7 @@
 //! with pillars and perimeter walls.
 
 use super::shapes::{add_box, add_hexahedron};
-use speleo_physics::terrain::{Mesh, Surface};
+use speleo_physics::terrain::{Material, Mesh};
 
 pub const LEVELS: usize = 3;
 pub const SIZE_X: f32 = 22.0;
@@ -44,21 +44,26 @@ pub fn generate() -> Garage {
         if l > 0 {
             let (y0, y1) = ramp_y(l - 1);
             let (x0, x1) = (RAMP_X0, RAMP_X0 + RAMP_LENGTH);
-            add_box(&mut m, [0.0, 0.0, lo], [x0, SIZE_Y, top], Surface::Concrete);
+            add_box(
+                &mut m,
+                [0.0, 0.0, lo],
+                [x0, SIZE_Y, top],
+                Material::Concrete,
+            );
             add_box(
                 &mut m,
                 [x1, 0.0, lo],
                 [SIZE_X, SIZE_Y, top],
-                Surface::Concrete,
+                Material::Concrete,
             );
-            add_box(&mut m, [x0, 0.0, lo], [x1, y0, top], Surface::Concrete);
-            add_box(&mut m, [x0, y1, lo], [x1, SIZE_Y, top], Surface::Concrete);
+            add_box(&mut m, [x0, 0.0, lo], [x1, y0, top], Material::Concrete);
+            add_box(&mut m, [x0, y1, lo], [x1, SIZE_Y, top], Material::Concrete);
         } else {
             add_box(
                 &mut m,
                 [-5.0, -5.0, lo],
                 [SIZE_X + 5.0, SIZE_Y + 5.0, top],
-                Surface::Concrete,
+                Material::Concrete,
             );
         }
         if l == LEVELS {
@@ -68,19 +73,19 @@ pub fn generate() -> Garage {
         floor += usable as f64;
         // Perimeter walls up to the next slab.
         let h = z + LEVEL_HEIGHT - SLAB;
-        add_box(&mut m, [0.0, 0.0, z], [SIZE_X, WALL, h], Surface::Concrete);
+        add_box(&mut m, [0.0, 0.0, z], [SIZE_X, WALL, h], Material::Concrete);
         add_box(
             &mut m,
             [0.0, SIZE_Y - WALL, z],
             [SIZE_X, SIZE_Y, h],
-            Surface::Concrete,
+            Material::Concrete,
         );
-        add_box(&mut m, [0.0, 0.0, z], [WALL, SIZE_Y, h], Surface::Concrete);
+        add_box(&mut m, [0.0, 0.0, z], [WALL, SIZE_Y, h], Material::Concrete);
         add_box(
             &mut m,
             [SIZE_X - WALL, 0.0, z],
             [SIZE_X, SIZE_Y, h],
-            Surface::Concrete,
+            Material::Concrete,
         );
         // Pillars every 7 m, clear of the ramps.
         for px in [7.0f32, 14.0] {
@@ -89,7 +94,7 @@ pub fn generate() -> Garage {
                     &mut m,
                     [px - 0.25, py - 0.25, z],
                     [px + 0.25, py + 0.25, h],
-                    Surface::Concrete,
+                    Material::Concrete,
                 );
             }
         }
@@ -109,7 +114,7 @@ pub fn generate() -> Garage {
                 [x1, y1, zt],
                 [x0, y1, zb],
             ],
-            Surface::Concrete,
+            Material::Concrete,
         );
         floor += (RAMP_WIDTH * (RAMP_LENGTH.hypot(LEVEL_HEIGHT))) as f64;
     }

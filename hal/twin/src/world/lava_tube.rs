@@ -9,7 +9,7 @@
 
 use super::noise::{noise1, noise2, uniform};
 use super::shapes::add_rock;
-use speleo_physics::terrain::{Mesh, Surface};
+use speleo_physics::terrain::{Material, Mesh};
 
 mod junction;
 use junction::TubeVolume;
@@ -218,15 +218,15 @@ fn mesh_tube(
                 continue;
             }
             let surface = if floor && (k as f64 * STEP_M) < mud_until_m {
-                Surface::Mud
+                Material::Mud
             } else {
-                Surface::Rock
+                Material::Rock
             };
             // Normals point into the tube (the side rays come from).
             m.triangles.push([a, c, b]);
             m.triangles.push([a, d, c]);
-            m.surfaces.push(surface);
-            m.surfaces.push(surface);
+            m.materials.push(surface);
+            m.materials.push(surface);
             if floor {
                 let n = m.triangles.len();
                 floor_area += m.triangle_geometry(n - 1).0 + m.triangle_geometry(n - 2).0;
@@ -245,7 +245,7 @@ fn mesh_tube(
             let (a, b) = (idx(k, j), idx(k, j + 1));
             m.triangles
                 .push(if k == 0 { [ci, a, b] } else { [ci, b, a] });
-            m.surfaces.push(Surface::Rock);
+            m.materials.push(Material::Rock);
         }
     }
     floor_area

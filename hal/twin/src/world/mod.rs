@@ -2,7 +2,7 @@
 //! garage, flat ground, or any triangle mesh file. Every world is a triangle
 //! mesh (the ground truth rays are cast against), the area of floor a rover
 //! could reach (for coverage figures), and a start pose. The meshes, their
-//! surfaces and their file formats are `speleo_physics::terrain`'s.
+//! materials and their file formats are `speleo_physics::terrain`'s.
 
 pub mod boulder_field;
 pub mod garage;
@@ -14,7 +14,7 @@ pub mod waypoints;
 
 use std::path::Path;
 
-pub use speleo_physics::terrain::{CleanStats, Mesh, MeshError, Surface};
+pub use speleo_physics::terrain::{CleanStats, Material, Mesh, MeshError};
 
 /// Worlds known by name.
 pub const NAMES: [&str; 5] = ["lava-tube", "short-tube", "garage", "boulders", "flat"];
@@ -93,7 +93,7 @@ impl World {
                     &mut m,
                     [-100.0, -100.0, -0.5],
                     [100.0, 100.0, 0.0],
-                    Surface::Rock,
+                    Material::Rock,
                 );
                 Ok(World {
                     name: name.into(),
@@ -181,8 +181,8 @@ mod tests {
             "{}",
             a.floor_area_m2
         );
-        assert!(a.mesh.surfaces.contains(&Surface::Mud));
-        assert!(a.mesh.surfaces.contains(&Surface::Boulder));
+        assert!(a.mesh.materials.contains(&Material::Mud));
+        assert!(a.mesh.materials.contains(&Material::Boulder));
         assert!(
             a.mesh.triangle_count() > 30_000,
             "{}",

@@ -1,9 +1,9 @@
 //! Closed primitives for building worlds.
 
-use speleo_physics::terrain::{Mesh, Surface};
+use speleo_physics::terrain::{Material, Mesh};
 
 /// An axis-aligned box, outward normals.
-pub fn add_box(m: &mut Mesh, lo: [f32; 3], hi: [f32; 3], s: Surface) {
+pub fn add_box(m: &mut Mesh, lo: [f32; 3], hi: [f32; 3], s: Material) {
     let c = |x: usize, y: usize, z: usize| -> [f32; 3] {
         [
             if x == 0 { lo[0] } else { hi[0] },
@@ -29,7 +29,7 @@ pub fn add_box(m: &mut Mesh, lo: [f32; 3], hi: [f32; 3], s: Surface) {
 
 /// A hexahedron from its bottom face (counter-clockwise seen from above)
 /// and top face in the same order; outward normals.
-pub fn add_hexahedron(m: &mut Mesh, v: [[f32; 3]; 8], s: Surface) {
+pub fn add_hexahedron(m: &mut Mesh, v: [[f32; 3]; 8], s: Material) {
     let base = m.vertices.len() as u32;
     m.vertices.extend_from_slice(&v);
     let quads = [
@@ -43,8 +43,8 @@ pub fn add_hexahedron(m: &mut Mesh, v: [[f32; 3]; 8], s: Surface) {
     for q in quads {
         m.triangles.push([base + q[0], base + q[1], base + q[2]]);
         m.triangles.push([base + q[0], base + q[2], base + q[3]]);
-        m.surfaces.push(s);
-        m.surfaces.push(s);
+        m.materials.push(s);
+        m.materials.push(s);
     }
 }
 
@@ -104,7 +104,7 @@ pub fn add_rock(m: &mut Mesh, x: f64, y: f64, floor_z: f64, size: f64, seed: u64
             [pca, pbc, pc],
             [pab, pbc, pca],
         ] {
-            m.push_triangle(t[0], t[1], t[2], Surface::Boulder);
+            m.push_triangle(t[0], t[1], t[2], Material::Boulder);
         }
     }
 }

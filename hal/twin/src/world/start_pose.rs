@@ -70,7 +70,7 @@ pub fn roomy_start(
 mod tests {
     use super::*;
     use crate::world::shapes::add_box;
-    use crate::world::Surface;
+    use crate::world::Material;
 
     #[test]
     fn the_start_is_clear_of_a_rock_at_the_floors_centre() {
@@ -88,10 +88,15 @@ mod tests {
                     [x, y + 0.5, 0.0],
                 ]);
                 m.triangles.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
-                m.surfaces.extend([Surface::Rock; 2]);
+                m.materials.extend([Material::Rock; 2]);
             }
         }
-        add_box(&mut m, [-0.3, -0.3, 0.0], [0.3, 0.3, 0.5], Surface::Boulder);
+        add_box(
+            &mut m,
+            [-0.3, -0.3, 0.0],
+            [0.3, 0.3, 0.5],
+            Material::Boulder,
+        );
         let w = crate::world::World::from_mesh("test", m);
         let [x, y, z, _] = w.start;
         // A whole room's radius from the block's nearest vertex.

@@ -1,4 +1,4 @@
-//! The three flight modes: sim, replay and run. Each prepares its hardware, clock
+//! The three flight commands: sim, replay and run. Each prepares its hardware, clock
 //! and recorder, then hands them to [`Session::drive`].
 
 use std::cell::RefCell;
@@ -14,9 +14,9 @@ use speleo_hal::replay::ReplayHardware;
 use speleo_hal::Hardware;
 use speleo_scheduler::realtime::{setup_realtime, MonotonicClock};
 use speleo_scheduler::{Enforcement, FrameClock, VirtualClock};
-use speleo_twin::{RoverParams, SimHardware, SimParams, TruthProbe};
+use speleo_twin::{RoverParams, TruthProbe, TwinHardware, TwinParams};
 
-use crate::cli::{Outputs, ReplayArgs, RunArgs, SimArgs};
+use crate::args::{Outputs, ReplayArgs, RunArgs, SimArgs};
 use crate::config::{Config, StartSpec};
 use crate::faults::inject::{FaultClock, FaultyHardware};
 use crate::mission::{self, Length, MissionInputs, MissionResult};
@@ -382,13 +382,13 @@ pub fn simulate(cfg: &mut Config, out: &Outputs, progress: bool) -> Result<Missi
         cfg.validate()?;
     }
     schedule_table::build(cfg)?;
-    let mut params = sim_params(cfg);
+    let mut params = twin_params(cfg);
     // A start away from the world's own stands on the ground there.
     params.start_on_ground = cfg.sim.start.is_some();
-    let mut sim_hw = SimHardware::with_world(&params, &world)?;
-    let truth = sim_hw.truth_probe();
+    let mut twin = TwinHardware::with_world(&params, &world)?;
+    let truth = twin.truth_probe();
     let faults = crate::faults::parse_all(&cfg.sim.faults)?;
-    let mut hw = FaultyHardware::new(&mut sim_hw, &faults, false);
+    let mut hw = FaultyHardware::new(&mut twin, &faults, false);
     let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
     let mut meta = run_metadata(cfg, "sim", epoch_ns);
     meta.insert("seed".into(), cfg.sim.seed.to_string());
@@ -413,7 +413,7 @@ pub fn simulate(cfg: &mut Config, out: &Outputs, progress: bool) -> Result<Missi
     )?;
     drop(hw);
     finish_maps(cfg, out, &mut result)?;
-    let strikes = sim_hw.strikes();
+    let strikes = twin.strikes();
     if strikes.wrecked {
         tracing::warn!(
             "the rover fell {:.1} m and was wrecked: the mission ended there",
@@ -503,9 +503,9 @@ fn exploration_truth(
 }
 
 /// The simulated hardware as the configuration describes it.
-pub fn sim_params(cfg: &Config) -> SimParams {
+pub fn twin_params(cfg: &Config) -> TwinParams {
     let [mr, mp, my] = cfg.sim.imu_misalignment_deg.map(f64::to_radians);
-    SimParams {
+    TwinParams {
         seed: cfg.sim.noise_seed.unwrap_or(cfg.sim.seed),
         rover: RoverParams {
             wheel_radius_m: cfg.rover.wheel_radius_m,
@@ -529,7 +529,7 @@ pub fn sim_params(cfg: &Config) -> SimParams {
             let [r, p, yw] = cfg.lidar.mount_rpy_deg.map(f64::to_radians);
             [x, y, z, r, p, yw]
         },
-        ..SimParams::default()
+        ..TwinParams::default()
     }
 }
 

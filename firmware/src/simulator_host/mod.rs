@@ -8,23 +8,23 @@ use speleo_simulator::InternalSim;
 mod worker;
 
 use crate::validation_dump::ValidationDump;
-pub use worker::{SimWorker, WorkerCounters, SIM_WORKER_BUDGET_US};
+pub use worker::{SimulatorWorker, WorkerCounters, SIM_WORKER_BUDGET_US};
 
 #[derive(Default)]
-pub struct SimHost {
+pub struct SimulatorHost {
     /// The core of its own the simulator does most of its work on.
-    pub worker: Option<SimWorker>,
+    pub worker: Option<SimulatorWorker>,
     /// Every validation's inputs written to files.
     pub dump: Option<ValidationDump>,
 }
 
-impl Rehearsal for SimHost {
+impl Rehearsal for SimulatorHost {
     fn offloads(&self) -> bool {
         self.worker.is_some()
     }
 
     fn join(&mut self) -> Option<Box<InternalSim>> {
-        self.worker.as_mut().and_then(SimWorker::join)
+        self.worker.as_mut().and_then(SimulatorWorker::join)
     }
 
     fn lend(&mut self, sim: Box<InternalSim>) -> Result<(), Box<InternalSim>> {

@@ -8,13 +8,13 @@ use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use speleo_hal::hdl32e::Calibration;
-use speleo_twin::lidar::{LidarParams, LidarWorld, SensorPose, SimLidar};
+use speleo_twin::lidar::{LidarParams, LidarTwin, LidarWorld, SensorPose};
 use speleo_twin::world::World;
 
 fn bench(c: &mut Criterion) {
     let w = World::build("lava-tube", 1).expect("tube");
     let lw = Arc::new(LidarWorld::new(&w.mesh).expect("mesh"));
-    let mut g = c.benchmark_group("sim_lidar");
+    let mut g = c.benchmark_group("lidar_twin");
     g.sample_size(10);
     for threads in [1, 2] {
         g.bench_function(
@@ -28,7 +28,7 @@ fn bench(c: &mut Criterion) {
                         cast_threads: threads,
                         ..LidarParams::default()
                     };
-                    let mut l = SimLidar::new(p, Calibration::nominal(), lw.clone(), 1);
+                    let mut l = LidarTwin::new(p, Calibration::nominal(), lw.clone(), 1);
                     let (x0, y0, z0, yaw) = (w.start[0], w.start[1], w.start[2] + 0.7, w.start[3]);
                     let pose = |t: f64| {
                         SensorPose::from_ypr(

@@ -31,7 +31,7 @@ pub struct WorkerCounters {
     pub drive_steps: u64,
 }
 
-pub struct SimWorker {
+pub struct SimulatorWorker {
     cp: Coprocessor<InternalSim>,
     units: u32,
     /// The simulator's physics step, s.
@@ -48,10 +48,10 @@ fn batch(sim: &mut InternalSim, units: u32) {
     let _ = sim.step_without_clouds(units as usize);
 }
 
-impl SimWorker {
+impl SimulatorWorker {
     /// Start the worker thread; its allocations are counted as `slot`'s.
     pub fn spawn(units: u32, dt_s: f64, slot: u16) -> std::io::Result<Self> {
-        Ok(SimWorker {
+        Ok(SimulatorWorker {
             cp: Coprocessor::spawn("speleo-sim", slot, batch)?,
             units,
             dt_s,

@@ -1,4 +1,4 @@
-//! The arguments of the flight modes (`sim`, `replay`, `run`) and the
+//! The arguments of the flight commands (`sim`, `replay`, `run`) and the
 //! outputs they share; the command line itself is the `speleo` binary's.
 
 use std::path::PathBuf;
