@@ -99,22 +99,22 @@ pub struct ExplorationFigures {
 
 /// The on-board figures.
 pub fn onboard(e: &Exploration, c: &ControlCounters) -> ExplorationFigures {
-    use speleo_exploration::{Mode, ReturnReason};
+    use speleo_exploration::{ExplorerPhase, ReturnReason};
     let reason = |r: ReturnReason| match r {
         ReturnReason::Explored => "explored".to_string(),
         ReturnReason::TimeLimit => "time_limit".to_string(),
         ReturnReason::Energy => "energy".to_string(),
     };
-    let (state, return_reason) = match e.mode() {
-        Mode::Exploring => ("exploring", None),
-        Mode::Returning(r) => ("returning", Some(reason(r))),
-        Mode::Finished(r) => ("finished", Some(reason(r))),
-        Mode::Stranded => ("stranded", None),
+    let (state, return_reason) = match e.phase() {
+        ExplorerPhase::Exploring => ("exploring", None),
+        ExplorerPhase::Returning(r) => ("returning", Some(reason(r))),
+        ExplorerPhase::Finished(r) => ("finished", Some(reason(r))),
+        ExplorerPhase::Stranded => ("stranded", None),
     };
     ExplorationFigures {
         state: state.into(),
         return_reason,
-        returned_home: matches!(e.mode(), Mode::Finished(_)),
+        returned_home: matches!(e.phase(), ExplorerPhase::Finished(_)),
         goals_attempted: e.counters.goals_attempted,
         goals_unreachable: e.counters.goals_unreachable,
         goals_on_rocks: e.counters.goals_on_rocks,

@@ -69,7 +69,7 @@ impl Default for ExplorerParams {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
+pub enum ExplorerPhase {
     Exploring,
     /// Going home, and why.
     Returning(ReturnReason),
@@ -99,7 +99,7 @@ pub struct Explorer {
     rejected: heapless::Deque<[f64; 2], MAX_REJECTED>,
     /// Scratch: the rejected goals as a slice.
     rejected_flat: heapless::Vec<[f64; 2], MAX_REJECTED>,
-    mode: Mode,
+    phase: ExplorerPhase,
     empty_queries: u32,
     /// Exploring resumed on the way home and has driven nothing since.
     resumed: bool,
@@ -126,7 +126,7 @@ impl Explorer {
             trail,
             rejected: heapless::Deque::new(),
             rejected_flat: heapless::Vec::new(),
-            mode: Mode::Exploring,
+            phase: ExplorerPhase::Exploring,
             empty_queries: 0,
             resumed: false,
             resumed_in_vain_at: None,
@@ -150,7 +150,7 @@ impl Explorer {
         self.trail.record(home);
         self.rejected.clear();
         self.rejected_flat.clear();
-        self.mode = Mode::Exploring;
+        self.phase = ExplorerPhase::Exploring;
         self.empty_queries = 0;
         self.resumed = false;
         self.resumed_in_vain_at = None;
@@ -158,8 +158,8 @@ impl Explorer {
         self.last_seen = None;
     }
 
-    pub fn mode(&self) -> Mode {
-        self.mode
+    pub fn phase(&self) -> ExplorerPhase {
+        self.phase
     }
 
     pub fn home(&self) -> [f64; 3] {
@@ -214,29 +214,29 @@ impl Explorer {
             self.driven_m += (p[0] - l[0]).hypot(p[1] - l[1]);
         }
         self.last_seen = Some(p);
-        if self.mode == Mode::Exploring && t_s >= self.p.time_limit_s {
-            self.mode = Mode::Returning(ReturnReason::TimeLimit);
+        if self.phase == ExplorerPhase::Exploring && t_s >= self.p.time_limit_s {
+            self.phase = ExplorerPhase::Returning(ReturnReason::TimeLimit);
         }
-        if self.mode == Mode::Exploring
+        if self.phase == ExplorerPhase::Exploring
             && self.p.energy_budget_wh > 0.0
             && self.energy_used_wh + self.way_home_wh(p) >= self.p.energy_budget_wh
         {
-            self.mode = Mode::Returning(ReturnReason::Energy);
+            self.phase = ExplorerPhase::Returning(ReturnReason::Energy);
         }
-        if let Mode::Returning(r) = self.mode {
+        if let ExplorerPhase::Returning(r) = self.phase {
             // On home's level only: a garage rover on its way home crossed
             // over home on the second deck and the mission ended there.
             let d = (p[0] - self.home[0]).hypot(p[1] - self.home[1]);
             if d <= self.p.home_tolerance_m && (p[2] - self.home[2]).abs() <= LEVEL_M {
-                self.mode = Mode::Finished(r);
+                self.phase = ExplorerPhase::Finished(r);
             }
         }
     }
 
     /// The rover cannot move any more: the mission ends where it stands.
     pub fn strand(&mut self) {
-        if !matches!(self.mode, Mode::Finished(_)) {
-            self.mode = Mode::Stranded;
+        if !matches!(self.phase, ExplorerPhase::Finished(_)) {
+            self.phase = ExplorerPhase::Stranded;
         }
     }
 
@@ -271,8 +271,10 @@ impl Explorer {
             return;
         }
         self.empty_queries += 1;
-        if self.mode == Mode::Exploring && self.empty_queries >= self.p.empty_queries_to_return {
-            self.mode = Mode::Returning(ReturnReason::Explored);
+        if self.phase == ExplorerPhase::Exploring
+            && self.empty_queries >= self.p.empty_queries_to_return
+        {
+            self.phase = ExplorerPhase::Returning(ReturnReason::Explored);
         }
     }
 
@@ -284,10 +286,10 @@ impl Explorer {
         let in_vain_near = self
             .resumed_in_vain_at
             .is_some_and(|q| (q[0] - at[0]).hypot(q[1] - at[1]) < RESUME_AGAIN_M);
-        if self.mode != Mode::Returning(ReturnReason::Explored) || in_vain_near {
+        if self.phase != ExplorerPhase::Returning(ReturnReason::Explored) || in_vain_near {
             return false;
         }
-        self.mode = Mode::Exploring;
+        self.phase = ExplorerPhase::Exploring;
         self.empty_queries = 0;
         self.resumed = true;
         true
@@ -309,12 +311,12 @@ impl Explorer {
     /// rover came refused by the simulation): home by plans instead, true.
     /// Exploring does not resume within [`RESUME_AGAIN_M`] of here.
     pub fn give_up_here(&mut self, at: [f64; 2]) -> bool {
-        if self.mode != Mode::Exploring {
+        if self.phase != ExplorerPhase::Exploring {
             return false;
         }
         self.resumed = false;
         self.resumed_in_vain_at = Some(at);
-        self.mode = Mode::Returning(ReturnReason::Explored);
+        self.phase = ExplorerPhase::Returning(ReturnReason::Explored);
         true
     }
 
@@ -354,11 +356,11 @@ mod tests {
         }
         e.query_result(false);
         e.query_result(true);
-        assert_eq!(e.mode(), Mode::Exploring);
+        assert_eq!(e.phase(), ExplorerPhase::Exploring);
         for _ in 0..3 {
             e.query_result(false);
         }
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         let mut goals = Vec::new();
         e.home_goals([19.0, 0.0, 0.2], 8.0, 2.0, &mut |g| goals.push(g));
         assert_eq!(goals.len(), 7);
@@ -366,19 +368,19 @@ mod tests {
         assert!((goals[0][0] - 9.0).abs() < 1e-9, "{goals:?}");
         // A frontier seen on the way: exploring again, until it too is done.
         assert!(e.resume([19.0, 0.0]));
-        assert_eq!(e.mode(), Mode::Exploring);
+        assert_eq!(e.phase(), ExplorerPhase::Exploring);
         for _ in 0..3 {
             e.query_result(false);
         }
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         // Passing 0.3 m from home is not home yet; 0.2 m is.
         e.observe(100.0, [0.3, 0.0, 0.2]);
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         e.observe(101.0, [0.2, 0.0, 0.2]);
-        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Finished(ReturnReason::Explored));
         // Home is home.
         assert!(!e.resume([0.2, 0.0]));
-        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Finished(ReturnReason::Explored));
     }
 
     #[test]
@@ -393,24 +395,24 @@ mod tests {
         for k in 0..=60 {
             e.set_energy_used(k as f64);
             e.observe(k as f64, [k as f64, 0.0, 0.2]);
-            if e.mode() != Mode::Exploring {
+            if e.phase() != ExplorerPhase::Exploring {
                 break;
             }
         }
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Energy));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Energy));
         assert_eq!(e.driven_m(), 40.0);
         assert_eq!(e.way_home_m([40.0, 0.0, 0.2]), 40.0);
         // Something explorable on the way home does not turn it round.
         assert!(!e.resume([30.0, 0.0]));
         e.observe(100.0, [0.1, 0.0, 0.2]);
-        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Energy));
+        assert_eq!(e.phase(), ExplorerPhase::Finished(ReturnReason::Energy));
         // Without a budget the same draw never sends it home.
         let mut e = Explorer::new(ExplorerParams::default(), [0.0, 0.0, 0.2]);
         for k in 0..=60 {
             e.set_energy_used(k as f64);
             e.observe(k as f64, [k as f64, 0.0, 0.2]);
         }
-        assert_eq!(e.mode(), Mode::Exploring);
+        assert_eq!(e.phase(), ExplorerPhase::Exploring);
     }
 
     #[test]
@@ -419,13 +421,13 @@ mod tests {
         for _ in 0..3 {
             e.query_result(false);
         }
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         // The garage's second deck, 6 m over home.
         e.observe(10.0, [0.1, 0.0, 6.2]);
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         // Down the ramps, on home's own floor.
         e.observe(20.0, [0.1, 0.0, 0.25]);
-        assert_eq!(e.mode(), Mode::Finished(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Finished(ReturnReason::Explored));
     }
 
     #[test]
@@ -437,20 +439,20 @@ mod tests {
         // Nothing reachable right after a resume: home again at once.
         assert!(e.resume([27.0, 4.0]));
         assert!(e.resumed_in_vain([27.0, 4.0]));
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         // The same patches from near there are not tried again ...
         assert!(!e.resume([30.0, 4.0]));
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::Explored));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         // ... but farther on they may be; and once a plan is driven, a
         // later dead end is an ordinary one (no return forced).
         assert!(e.resume([20.0, 4.0]));
         e.driven();
         assert!(!e.resumed_in_vain([15.0, 4.0]));
-        assert_eq!(e.mode(), Mode::Exploring);
+        assert_eq!(e.phase(), ExplorerPhase::Exploring);
         // Exploring that never was resumed is not cut short either.
         let mut fresh = Explorer::new(ExplorerParams::default(), [0.0; 3]);
         assert!(!fresh.resumed_in_vain([1.0, 0.0]));
-        assert_eq!(fresh.mode(), Mode::Exploring);
+        assert_eq!(fresh.phase(), ExplorerPhase::Exploring);
     }
 
     #[test]
@@ -458,13 +460,13 @@ mod tests {
         let mut e = Explorer::new(ExplorerParams::default(), [0.0; 3]);
         e.observe(1.0, [6.0, 0.0, 0.0]);
         e.strand();
-        assert_eq!(e.mode(), Mode::Stranded);
+        assert_eq!(e.phase(), ExplorerPhase::Stranded);
         // Nothing brings it back: neither a frontier, nor the time limit,
         // nor passing near home (it cannot move).
         assert!(!e.resume([6.0, 0.0]));
         e.query_result(false);
         e.observe(1.0e6, [0.0, 0.0, 0.0]);
-        assert_eq!(e.mode(), Mode::Stranded);
+        assert_eq!(e.phase(), ExplorerPhase::Stranded);
         // Home is home: a finished mission is not stranded afterwards.
         let mut home = Explorer::new(ExplorerParams::default(), [0.0; 3]);
         for _ in 0..3 {
@@ -472,7 +474,10 @@ mod tests {
         }
         home.observe(2.0, [0.1, 0.0, 0.0]);
         home.strand();
-        assert_eq!(home.mode(), Mode::Finished(ReturnReason::Explored));
+        assert_eq!(
+            home.phase(),
+            ExplorerPhase::Finished(ReturnReason::Explored)
+        );
     }
 
     #[test]
@@ -485,9 +490,9 @@ mod tests {
             [0.0; 3],
         );
         e.observe(11.0, [5.0, 0.0, 0.0]);
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::TimeLimit));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::TimeLimit));
         assert!(!e.resume([5.0, 0.0]));
-        assert_eq!(e.mode(), Mode::Returning(ReturnReason::TimeLimit));
+        assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::TimeLimit));
         for k in 0..100 {
             e.reject([k as f64, 0.0]);
         }

@@ -17,5 +17,5 @@ pub mod trail;
 pub use candidates::{Candidate, CandidateParams, CandidateScan, Pass, ScanCensus, MAX_CANDIDATES};
 pub use coverage::CoverageMap;
 pub use energy::{EnergyMeter, PowerModel};
-pub use explorer::{Explorer, ExplorerParams, Mode, ReturnReason};
+pub use explorer::{Explorer, ExplorerParams, ExplorerPhase, ReturnReason};
 pub use trail::Trail;

@@ -1,7 +1,7 @@
 //! Exploring: the scan of the grown graph for candidates, and what a
 //! query does when it finds none.
 
-use speleo_exploration::{Mode, Pass, ReturnReason};
+use speleo_exploration::{ExplorerPhase, Pass, ReturnReason};
 
 use crate::exploration::Exploration;
 use crate::query::Phase;
@@ -47,7 +47,7 @@ impl Navigator {
         counters.scans += 1;
         let found = !scan.best().is_empty();
         if !found
-            && explorer.mode() == Mode::Exploring
+            && explorer.phase() == ExplorerPhase::Exploring
             && self.window_half_m < self.window_max_half_m
         {
             // Nothing here yet: the next query looks farther before the
@@ -63,7 +63,7 @@ impl Navigator {
             self.end_query();
             return Phase::Idle;
         }
-        if matches!(explorer.mode(), Mode::Returning(_)) {
+        if matches!(explorer.phase(), ExplorerPhase::Returning(_)) {
             // Nothing new here either (or a return for the time limit, or
             // a place where exploring again was in vain): on home.
             if !found || !explorer.resume([self.query.rover[0], self.query.rover[1]]) {
@@ -77,7 +77,9 @@ impl Navigator {
             );
         } else {
             explorer.query_result(found);
-            if explorer.mode() == Mode::Returning(ReturnReason::Explored) && ex.second_look() {
+            if explorer.phase() == ExplorerPhase::Returning(ReturnReason::Explored)
+                && ex.second_look()
+            {
                 // The next query grows its graph without the barred places.
                 self.end_query();
                 return Phase::Idle;

@@ -20,7 +20,7 @@ use speleo_planner::mprim::MprimFile;
 use speleo_planner::surface::{SurfaceLattice, SurfaceParams, SOLID_PER_CELL};
 use speleo_traversability::{TravMap, TravParams};
 
-use speleo_exploration::Mode;
+use speleo_exploration::ExplorerPhase;
 
 use crate::exploration::{Exploration, NO_GO_RADIUS_M, RIM_RADIUS_M, SLIDE_RADIUS_M, SLIDE_RISE_M};
 use crate::input::{NavInput, Outbox};
@@ -346,7 +346,7 @@ impl Navigator {
                         }
                         // Exploring, not up a slope the rover slid on (the
                         // way home may have to go up one).
-                        if ex.explorer.mode() == Mode::Exploring {
+                        if ex.explorer.phase() == ExplorerPhase::Exploring {
                             for p in ex.slides.iter() {
                                 self.lat
                                     .trav_mut()

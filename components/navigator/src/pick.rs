@@ -2,7 +2,7 @@
 //! rover and to the goal points, and the goal points themselves (ahead
 //! along a route, or back along the track home).
 
-use speleo_exploration::{Mode, ReturnReason};
+use speleo_exploration::{ExplorerPhase, ReturnReason};
 use speleo_mapping::mls::{ground_near, MlsMap};
 use speleo_traversability::Window;
 
@@ -64,8 +64,8 @@ impl Navigator {
             // reachable from here (a side passage's far end, back at its
             // junction), so every stop home scans again.
             if matches!(
-                ex.mode(),
-                Mode::Exploring | Mode::Returning(ReturnReason::Explored)
+                ex.phase(),
+                ExplorerPhase::Exploring | ExplorerPhase::Returning(ReturnReason::Explored)
             ) {
                 let res = trav.resolution();
                 let window = Window::around(q.rover[0], q.rover[1], self.window_half_m, res);

@@ -1,7 +1,7 @@
 //! A query's phases and its state: from the pose it began at to the goal
 //! it is planning to.
 
-use speleo_exploration::Mode;
+use speleo_exploration::ExplorerPhase;
 use speleo_mapping::mls::MlsMap;
 use speleo_messages::attitude::yaw_of;
 use speleo_traversability::Window;
@@ -116,7 +116,7 @@ impl Navigator {
         };
         if let Some(ex) = &self.explore {
             // Exploring: candidates come after the graph is grown.
-            if matches!(ex.mode(), Mode::Returning(_)) {
+            if matches!(ex.phase(), ExplorerPhase::Returning(_)) {
                 let q = &mut self.query;
                 ex.explorer.home_goals(
                     pose.position,

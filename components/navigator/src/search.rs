@@ -1,7 +1,7 @@
 //! Planning to one goal: its checks before the search, the search's steps,
 //! and the plans it publishes.
 
-use speleo_exploration::Mode;
+use speleo_exploration::ExplorerPhase;
 use speleo_messages::PlanMsg;
 use speleo_planner::arastar::Progress;
 
@@ -14,10 +14,9 @@ impl Navigator {
     /// Plan to the `k`-th goal in order (any heading at the goal: the next
     /// query starts from wherever the rover is by then).
     pub(crate) fn try_goal(&mut self, k: usize) -> Phase {
-        let partial = self
-            .explore
-            .as_ref()
-            .is_some_and(|ex| !ex.partial.poses.is_empty() && ex.mode() == Mode::Exploring);
+        let partial = self.explore.as_ref().is_some_and(|ex| {
+            !ex.partial.poses.is_empty() && ex.phase() == ExplorerPhase::Exploring
+        });
         if k >= self.query.order_len && partial {
             return Phase::Partial;
         }
@@ -41,7 +40,7 @@ impl Navigator {
             ex.counters.goals_attempted += 1;
             let at = self.query.order[k].1;
             tracing::debug!(
-                mode = ?ex.mode(),
+                phase = ?ex.phase(),
                 from_x = self.query.rover[0],
                 from_y = self.query.rover[1],
                 x = at[0],
@@ -65,7 +64,7 @@ impl Navigator {
         let Some(ex) = self.explore.as_deref_mut() else {
             return false;
         };
-        if ex.mode() != Mode::Exploring {
+        if ex.phase() != ExplorerPhase::Exploring {
             return false;
         }
         let max_m = ex.scan.params().max_rock_m;
@@ -104,7 +103,7 @@ impl Navigator {
         // Only a window as large as it gets proves a goal out of reach:
         // the way to it may leave a smaller one (from the far side of a
         // garage level, the way onto the ramp whose top was the goal).
-        if ex.mode() == Mode::Exploring && self.window_half_m >= self.window_max_half_m {
+        if ex.phase() == ExplorerPhase::Exploring && self.window_half_m >= self.window_max_half_m {
             ex.explorer.reject([at[0], at[1]]);
         }
         self.phase = self.try_goal(self.query.tried + 1);

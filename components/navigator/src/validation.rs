@@ -2,7 +2,7 @@
 //! and back-out is driven there before it is marked to be driven, and a
 //! refused plan's well-driven first part may be driven instead.
 
-use speleo_exploration::Mode;
+use speleo_exploration::ExplorerPhase;
 use speleo_messages::attitude::yaw_of;
 use speleo_messages::{PlanMsg, SlamPose};
 use speleo_simulator::{Outcome, Stance};
@@ -104,7 +104,7 @@ impl Navigator {
         };
         // Exploring plans only: a retrace goes back the way the rover
         // came, and home is where it must go anyway.
-        let way_back = !self.query.retrace && ex.mode() == Mode::Exploring;
+        let way_back = !self.query.retrace && ex.phase() == ExplorerPhase::Exploring;
         let (Some(sim), Some(plan)) = (ex.sim_home(host), self.out.shown()) else {
             return false;
         };
@@ -209,7 +209,7 @@ impl Navigator {
             return;
         }
         let at = self.query.order[self.query.tried].1;
-        if ex.mode() == Mode::Exploring {
+        if ex.phase() == ExplorerPhase::Exploring {
             ex.explorer.reject([at[0], at[1]]);
             // A tip-over's or a fall's run-up is no ground to stop on; a
             // plan without a way back was driven whole.

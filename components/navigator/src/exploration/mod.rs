@@ -22,7 +22,7 @@ pub use recovery::{
 use comparison::Comparison;
 use speleo_control::StopReason;
 use speleo_exploration::{
-    CandidateParams, CandidateScan, EnergyMeter, Explorer, ExplorerParams, Mode,
+    CandidateParams, CandidateScan, EnergyMeter, Explorer, ExplorerParams, ExplorerPhase,
 };
 use speleo_messages::{ExplorationPhase, ExplorationStatus, PLAN_POSES};
 use speleo_simulator::{InternalSim, Outcome, PREDICTION_POINTS};
@@ -256,8 +256,8 @@ impl Exploration {
         self.counters.sim_outcomes[k] += 1;
     }
 
-    pub fn mode(&self) -> Mode {
-        self.explorer.mode()
+    pub fn phase(&self) -> ExplorerPhase {
+        self.explorer.phase()
     }
 
     /// Every frame: follow the rover's pose; publish the state.
@@ -281,11 +281,11 @@ impl Exploration {
             }
         }
         out.status = ExplorationStatus {
-            phase: match self.explorer.mode() {
-                Mode::Exploring => ExplorationPhase::Exploring,
-                Mode::Returning(_) => ExplorationPhase::Returning,
-                Mode::Finished(_) => ExplorationPhase::Finished,
-                Mode::Stranded => ExplorationPhase::Stranded,
+            phase: match self.explorer.phase() {
+                ExplorerPhase::Exploring => ExplorationPhase::Exploring,
+                ExplorerPhase::Returning(_) => ExplorationPhase::Returning,
+                ExplorerPhase::Finished(_) => ExplorationPhase::Finished,
+                ExplorerPhase::Stranded => ExplorationPhase::Stranded,
             },
             goal: out.status.goal,
         };
@@ -310,7 +310,12 @@ impl Exploration {
     /// maps have had `settle_s` since.
     pub fn ready(&mut self, input: &NavInput, out: &Outbox) -> bool {
         let now = input.now_ns;
-        if !self.homed || matches!(self.explorer.mode(), Mode::Finished(_) | Mode::Stranded) {
+        if !self.homed
+            || matches!(
+                self.explorer.phase(),
+                ExplorerPhase::Finished(_) | ExplorerPhase::Stranded
+            )
+        {
             return false;
         }
         let idle = self.executing == 0
@@ -328,8 +333,8 @@ impl Exploration {
             self.ended = self.executing;
             let stop = input.command.and_then(|c| c.value.stop);
             self.last_stop = stop;
-            if let (true, Mode::Exploring, Some(g)) =
-                (stop.is_some(), self.explorer.mode(), out.status.goal)
+            if let (true, ExplorerPhase::Exploring, Some(g)) =
+                (stop.is_some(), self.explorer.phase(), out.status.goal)
             {
                 self.explorer.reject([g[0], g[1]]);
             }

@@ -3,7 +3,7 @@
 //! places, slides, rims) that its graphs keep out of their plans.
 
 use speleo_control::StopReason;
-use speleo_exploration::Mode;
+use speleo_exploration::ExplorerPhase;
 use speleo_mapping::mls::{ground_near, MlsMap};
 use speleo_messages::attitude::yaw_of;
 use speleo_messages::PlanMsg;
@@ -151,7 +151,7 @@ impl Exploration {
         ]
         .iter()
         .any(|r| Some(*r) == stop);
-        if !slid || self.explorer.mode() != Mode::Exploring {
+        if !slid || self.explorer.phase() != ExplorerPhase::Exploring {
             return;
         }
         let Some(s) = input.slam.map(|p| p.value) else {
@@ -189,7 +189,7 @@ impl Exploration {
 
     /// A query on the way home found no plan.
     pub fn home_failed(&mut self) {
-        self.stranded |= matches!(self.explorer.mode(), Mode::Returning(_));
+        self.stranded |= matches!(self.explorer.phase(), ExplorerPhase::Returning(_));
     }
 
     /// A query found no ground to start from under the rover, or nothing
@@ -200,7 +200,11 @@ impl Exploration {
     }
 
     pub fn retrace_due(&self) -> bool {
-        self.stranded && !matches!(self.explorer.mode(), Mode::Finished(_) | Mode::Stranded)
+        self.stranded
+            && !matches!(
+                self.explorer.phase(),
+                ExplorerPhase::Finished(_) | ExplorerPhase::Stranded
+            )
     }
 
     /// Drive back along the rover's own track, `ahead_m` of it, as plan
@@ -245,7 +249,7 @@ impl Exploration {
         // home by).
         let track = self.explorer.trail();
         let trail = track.points();
-        let from = if matches!(self.explorer.mode(), Mode::Returning(_)) {
+        let from = if matches!(self.explorer.phase(), ExplorerPhase::Returning(_)) {
             track.earliest_near(pose, 2.0)
         } else {
             track.latest_near(pose, 2.0)

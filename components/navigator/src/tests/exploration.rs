@@ -5,7 +5,7 @@ use super::*;
 use crate::exploration::recovery::TILT_STALLS_TO_STRAND;
 use crate::exploration::MAX_RIMS;
 use speleo_control::StopReason;
-use speleo_exploration::{Mode, ReturnReason};
+use speleo_exploration::{ExplorerPhase, ReturnReason};
 use speleo_messages::DriveFeedback;
 
 fn at(rig: &mut Rig, p: [f64; 3]) {
@@ -55,7 +55,7 @@ fn the_drives_feedback_is_metered_and_the_budget_turns_the_rover_home() {
             rig.drives.publish(now, DriveFeedback::from(&drives));
             at(&mut rig, [k as f64 * 0.004, 0.0, 0.0]);
             rig.observe(&mut e, now);
-            if turned_at.is_none() && e.mode() == Mode::Returning(ReturnReason::Energy) {
+            if turned_at.is_none() && e.phase() == ExplorerPhase::Returning(ReturnReason::Energy) {
                 turned_at = Some(now as f64 * 1e-9);
             }
         }
@@ -101,7 +101,7 @@ fn a_retrace_goes_back_the_way_the_rover_came_and_on_the_way_home_toward_home() 
     for _ in 0..3 {
         e.explorer.query_result(false);
     }
-    assert!(matches!(e.mode(), Mode::Returning(_)));
+    assert!(matches!(e.phase(), ExplorerPhase::Returning(_)));
     rig.retrace(&mut e, 2, 2, 5.0);
     let home = end(&rig).unwrap_or_else(|| panic!("no retrace"));
     assert!(home[0] < 6.0, "{home:?}");
@@ -193,13 +193,13 @@ fn tilt_stops_in_one_place_strand_the_rover_and_moving_on_resets_the_count() {
     }
     e.count_tilt_stall(None, &rig.input(0));
     e.count_tilt_stall(tilt, &rig.input(0));
-    assert_eq!(e.explorer.mode(), Mode::Exploring);
+    assert_eq!(e.explorer.phase(), ExplorerPhase::Exploring);
     // Stop after stop where it stood: stranded, the mission over.
     for _ in 0..TILT_STALLS_TO_STRAND {
         at(&mut rig, [50.02, 0.01, 0.0]);
         e.count_tilt_stall(tilt, &rig.input(0));
     }
-    assert_eq!(e.explorer.mode(), Mode::Stranded);
+    assert_eq!(e.explorer.phase(), ExplorerPhase::Stranded);
     assert!(!e.retrace_due());
 }
 
@@ -241,7 +241,7 @@ fn a_stop_pitched_up_a_steep_slope_is_kept_as_a_slide_once() {
     for _ in 0..3 {
         e.explorer.query_result(false);
     }
-    assert!(matches!(e.mode(), Mode::Returning(_)));
+    assert!(matches!(e.phase(), ExplorerPhase::Returning(_)));
     pitched(&mut rig, [30.0, 0.0, -3.0], -22.0);
     e.note_slide(Some(StopReason::Stuck), &rig.input(0));
     assert_eq!(e.slides.len(), 1);

@@ -3,7 +3,7 @@
 use super::*;
 use crate::exploration::{NO_GO_RADIUS_M, RIM_RADIUS_M};
 use crate::ExplorationCounters;
-use speleo_exploration::Mode;
+use speleo_exploration::ExplorerPhase;
 use speleo_messages::PlanMsg;
 
 /// A rover standing at x = 8 m before the ledge, its track coming
@@ -15,8 +15,11 @@ fn retrace_before_a_ledge(from_x: f64, frames: u64) -> (ExplorationCounters, Vec
     (c, shown)
 }
 
-/// [`retrace_before_a_ledge`], and the explorer's mode at the end.
-fn retraces_before_a_ledge(from_x: f64, frames: u64) -> (ExplorationCounters, Vec<PlanMsg>, Mode) {
+/// [`retrace_before_a_ledge`], and the explorer's phase at the end.
+fn retraces_before_a_ledge(
+    from_x: f64,
+    frames: u64,
+) -> (ExplorationCounters, Vec<PlanMsg>, ExplorerPhase) {
     let mut rig = rig_before_a_ledge(8.0, false);
     let cfg = NavigatorParams::default();
     let prims = speleo_planner::primitives::generate(&Default::default());
@@ -50,21 +53,23 @@ fn retraces_before_a_ledge(from_x: f64, frames: u64) -> (ExplorationCounters, Ve
                 break;
             }
         }
-        if t.exploration().is_some_and(|e| e.mode() == Mode::Stranded) {
+        if t.exploration()
+            .is_some_and(|e| e.phase() == ExplorerPhase::Stranded)
+        {
             break;
         }
     }
     let ex = t.exploration().unwrap_or_else(|| panic!("exploring"));
-    (ex.counters, shown, ex.mode())
+    (ex.counters, shown, ex.phase())
 }
 
 #[test]
 fn retraces_refused_again_and_again_at_one_place_end_in_going_home_not_a_loop() {
     // Only back up the ledge leads anywhere: four refusals, then home
     // by plans (none, the ledge is the only way), four more, stranded.
-    let (c, shown, mode) = retraces_before_a_ledge(13.0, 200_000);
+    let (c, shown, phase) = retraces_before_a_ledge(13.0, 200_000);
     assert!(shown.iter().all(|p| !p.execute), "{shown:?}");
-    assert_eq!(mode, Mode::Stranded, "{c:?}");
+    assert_eq!(phase, ExplorerPhase::Stranded, "{c:?}");
     assert_eq!(c.retraces_refused, 8, "{c:?}");
 }
 
@@ -391,7 +396,7 @@ fn when_nothing_is_left_but_barred_places_they_are_forgotten_once_a_mission() {
     ex.explorer.reject([3.0, 4.0]);
     assert!(ex.second_look());
     assert!(ex.no_go.is_empty() && ex.explorer.rejected().is_empty());
-    assert_eq!(ex.mode(), Mode::Exploring);
+    assert_eq!(ex.phase(), ExplorerPhase::Exploring);
     assert_eq!(ex.counters.second_looks, 1);
     let _ = ex.no_go.push_back([1.0, 2.0, 0.0]);
     assert!(!ex.second_look(), "once a mission");
