@@ -33,8 +33,16 @@ use speleo_traversability::{Node, TravMap, NONE};
 use crate::mprim::MprimFile;
 use crate::{Lattice, INFINITE_COST};
 
-/// Speeds and body of the rover.
+mod validate;
+
+/// Speeds and body of the rover. Only the keys `[planner]` has always had
+/// are read and written; the rest keep their defaults.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(default, deny_unknown_fields)
+)]
 pub struct SurfaceParams {
     pub forward_speed_mps: f64,
     pub backward_speed_mps: f64,
@@ -52,7 +60,9 @@ pub struct SurfaceParams {
     /// scrubs its wheels sideways against gravity and slides: in the
     /// simulated garage it dug in turning on a 15 degree ramp, where it
     /// climbed the same ramp straight without trouble.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub turn_slope_free_deg: f64,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub turn_slope_weight_per_deg: f64,
     /// Bump cost: a primitive's time is multiplied by `1 + weight x b^2`,
     /// `b` the tallest bump under the body along its path, from 0 at
