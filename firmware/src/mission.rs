@@ -219,13 +219,11 @@ fn build_planner(cfg: &Config, on: bool) -> Result<planner::PlannerTask, Mission
     let (pc, route) = if on {
         (cfg.planner.clone(), &cfg.control.path[..])
     } else {
-        let idle = crate::config::PlannerConfig {
-            max_nodes: 16,
-            window_m: 2.0,
-            window_max_m: 2.0,
-            goal_ahead_m: 1.0,
-            ..cfg.planner.clone()
-        };
+        let mut idle = cfg.planner.clone();
+        idle.nav.trav.max_nodes = 16;
+        idle.nav.window_m = 2.0;
+        idle.nav.window_max_m = 2.0;
+        idle.nav.goal_ahead_m = 1.0;
         (idle, &[][..])
     };
     let nav = speleo_navigator::Navigator::new(
@@ -322,7 +320,7 @@ fn follower(cfg: &Config) -> PurePursuit {
 /// The internal simulator: the simulated rover's build, the control
 /// task's follower and limits, `[simulator]`'s world and judgement.
 pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParams {
-    let s = &cfg.simulator;
+    let s = &cfg.simulator.params;
     let c = &cfg.control;
     let r = &cfg.rover;
     speleo_simulator::SimulatorParams {
@@ -339,25 +337,14 @@ pub(crate) fn simulator_params(cfg: &Config) -> speleo_simulator::SimulatorParam
             skid_factor: r.skid_factor,
             max_wheel_speed: r.max_wheel_speed,
         },
-        voxel_m: s.voxel_m,
-        max_blocks: s.max_blocks,
-        margin_m: s.margin_m,
-        dt_s: s.dt_s,
-        goal_tolerance_m: s.goal_tolerance_m,
         // The rover's own safety monitor stops it at its tilt limit: a
         // plan that tilts it past that fails on board as surely as one
         // that turns it over (in the garage, plans the simulation passed
         // at 32 degrees, a wheel down a ramp's side, stopped the rover
         // there).
         tip_over_deg: s.tip_over_deg.min(cfg.control.max_tilt_deg),
-        stuck_after_s: s.stuck_after_s,
-        newest_keyframes: s.newest_keyframes,
         base_height_m: base_height_m(cfg),
-        start_tilted: s.start_tilted,
-        start_tilted_over_deg: s.start_tilted_over_deg,
-        way_back_drop_m: s.way_back_drop_m,
-        overhang_depth_m: s.overhang_depth_m,
-        ..speleo_simulator::SimulatorParams::default()
+        ..s.clone()
     }
 }
 
@@ -406,7 +393,7 @@ pub fn run<C: FrameClock>(
         t_slam.inject_false_loop(f.clone());
     }
     let maps_on = cfg.maps.enabled && cfg.slam.enabled;
-    let kf_capacity = cfg.slam.keyframe_capacity;
+    let kf_capacity = cfg.slam.params.keyframe_capacity;
     let mut t_maps = if maps_on {
         bus.keyframe_clouds =
             speleo_mapping::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);
@@ -446,7 +433,7 @@ pub fn run<C: FrameClock>(
             if cfg.simulator.worker_units > 0 {
                 let w = SimWorker::spawn(
                     cfg.simulator.worker_units,
-                    cfg.simulator.dt_s,
+                    cfg.simulator.params.dt_s,
                     planner_slot(),
                 )
                 .map_err(|e| MissionError::Planner(format!("the simulator's worker: {e}")))?;
@@ -479,10 +466,11 @@ pub fn run<C: FrameClock>(
             max_tilt_deg: c.max_tilt_deg,
             stuck_after_s: c.stuck_after_s,
             max_cross_track_m: c.max_cross_track_m,
-            max_step_m: cfg.planner.max_step_m,
-            max_slope_deg: cfg.planner.max_slope_deg,
+            // The step as the decimal written, not its f32.
+            max_step_m: speleo_params::decimal(cfg.planner.nav.trav.max_step_m),
+            max_slope_deg: cfg.planner.nav.trav.max_slope_deg,
             base_height_m: base_height_m(cfg),
-            front_m: 0.5 * cfg.planner.body_length_m,
+            front_m: 0.5 * cfg.planner.nav.surface.body_length_m,
             half_track_m: 0.5 * cfg.rover.track_width_m,
             ..SafetyParams::default()
         }),
@@ -738,8 +726,8 @@ pub fn run<C: FrameClock>(
         ),
         mount: mount_pose(cfg),
     });
-    let planner =
-        planner_on.then(|| crate::planner_figures::figures(&t_plan, cfg.planner.max_nodes));
+    let planner = planner_on
+        .then(|| crate::planner_figures::figures(&t_plan, cfg.planner.nav.trav.max_nodes));
     let mut explored = None;
     let exploration = t_plan.nav.exploration().map(|e| {
         use crate::exploration_figures as ef;
@@ -948,10 +936,10 @@ mod tests {
     fn the_internal_simulation_fails_a_plan_where_the_safety_monitor_would_stop_the_rover() {
         let mut cfg = Config::default();
         cfg.control.max_tilt_deg = 30.0;
-        cfg.simulator.tip_over_deg = 45.0;
+        cfg.simulator.params.tip_over_deg = 45.0;
         assert_eq!(simulator_params(&cfg).tip_over_deg, 30.0);
         // A lower tip-over angle of its own still counts.
-        cfg.simulator.tip_over_deg = 25.0;
+        cfg.simulator.params.tip_over_deg = 25.0;
         assert_eq!(simulator_params(&cfg).tip_over_deg, 25.0);
     }
 }
