@@ -96,7 +96,8 @@ pub(crate) const EXPLORE_IMPROVE_EXPANSIONS: u64 = 20_000;
 )]
 pub struct NavigatorParams {
     /// Side of the square the graph is grown in, and the most it grows to
-    /// after queries that drove nothing, m.
+    /// after queries that drove nothing, m. The way to a garage ramp's
+    /// foot lay outside 30 m from the far side of the level.
     pub window_m: f64,
     pub window_max_m: f64,
     /// Following a route, the goal lies this far ahead along it, m.

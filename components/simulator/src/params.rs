@@ -31,7 +31,8 @@ pub struct SimulatorParams {
     /// The world is the box around the plan grown by this, m.
     pub margin_m: f64,
     /// Keyframes whose sensor is within this of that box are integrated, m,
-    /// the newest `newest_keyframes` of them.
+    /// the newest `newest_keyframes` of them (older passes may not agree
+    /// with them before SLAM closes the loop).
     #[cfg_attr(feature = "serde", serde(skip))]
     pub cloud_range_m: f64,
     pub newest_keyframes: usize,
