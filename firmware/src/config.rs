@@ -7,16 +7,19 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+mod compose;
 mod exploration;
 mod maps;
 mod planner;
 mod planner_steps;
 mod simulator;
+mod slam;
 pub use exploration::ExplorationConfig;
 pub use maps::MapsConfig;
 pub use planner::PlannerConfig;
 pub use planner_steps::{PlannerStepUnits, MAX_STEP_UNITS, STEP_PHASES};
 pub use simulator::SimulatorConfig;
+pub use slam::SlamConfig;
 
 #[derive(Debug, Error)]
 pub enum ConfigError {
@@ -297,108 +300,6 @@ impl Default for LidarConfig {
     }
 }
 
-/// Graph SLAM (`[slam]`); see components/slam/README.md for each setting.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct SlamConfig {
-    /// Run SLAM when a LiDAR is present.
-    pub enabled: bool,
-    pub keyframe_capacity: usize,
-    pub active_keyframes: usize,
-    pub submap_keyframes: usize,
-    pub keyframe_distance_m: f64,
-    pub keyframe_angle_deg: f64,
-    pub voxel_m: f64,
-    pub max_range_m: f64,
-    pub max_scan_points: usize,
-    pub neighbors: usize,
-    pub loop_radius_m: f64,
-    pub loop_min_gap: usize,
-    pub refine_distance_m: f64,
-    pub refine_mutual: bool,
-    pub min_surface_share: f64,
-    pub loop_verify_distance_m: f64,
-    pub loop_max_fitness_m: f64,
-    pub loop_min_inlier_fraction: f64,
-    pub odom_sigma_m_per_m: f64,
-    pub odom_sigma_rad_per_s: f64,
-    pub odom_sigma_vertical_m_per_m: f64,
-    pub inclination_sigma_deg: f64,
-    pub estimate_bias: bool,
-    pub bias_prior_deg: f64,
-    /// Points one SLAM step visits: the work quantum of the slam task.
-    pub points_per_step: usize,
-    /// Factors one optimisation step linearises or costs.
-    pub factors_per_step: usize,
-}
-
-impl Default for SlamConfig {
-    fn default() -> Self {
-        let p = speleo_slam::graph_slam::SlamParams::default();
-        SlamConfig {
-            enabled: true,
-            keyframe_capacity: p.keyframe_capacity,
-            active_keyframes: p.active_keyframes,
-            submap_keyframes: p.submap_keyframes,
-            keyframe_distance_m: p.keyframe_distance_m,
-            keyframe_angle_deg: p.keyframe_angle_deg,
-            voxel_m: p.voxel_m,
-            max_range_m: p.max_range_m,
-            max_scan_points: p.max_scan_points,
-            neighbors: p.neighbors,
-            loop_radius_m: p.loop_radius_m,
-            loop_min_gap: p.loop_min_gap,
-            refine_distance_m: p.refine_distance_m,
-            refine_mutual: p.refine_mutual,
-            min_surface_share: p.min_surface_share,
-            loop_verify_distance_m: p.loop_verify_distance_m,
-            loop_max_fitness_m: p.loop_max_fitness_m,
-            loop_min_inlier_fraction: p.loop_min_inlier_fraction,
-            odom_sigma_m_per_m: p.odom_sigma_m_per_m,
-            odom_sigma_rad_per_s: p.odom_sigma_rad_per_s,
-            odom_sigma_vertical_m_per_m: p.odom_sigma_vertical_m_per_m,
-            inclination_sigma_deg: p.inclination_sigma_deg,
-            estimate_bias: p.estimate_bias,
-            bias_prior_deg: p.bias_prior_deg,
-            points_per_step: p.points_per_step,
-            factors_per_step: p.factors_per_step,
-        }
-    }
-}
-
-impl SlamConfig {
-    pub fn params(&self) -> speleo_slam::graph_slam::SlamParams {
-        speleo_slam::graph_slam::SlamParams {
-            keyframe_capacity: self.keyframe_capacity,
-            active_keyframes: self.active_keyframes,
-            submap_keyframes: self.submap_keyframes,
-            keyframe_distance_m: self.keyframe_distance_m,
-            keyframe_angle_deg: self.keyframe_angle_deg,
-            voxel_m: self.voxel_m,
-            max_range_m: self.max_range_m,
-            max_scan_points: self.max_scan_points,
-            neighbors: self.neighbors,
-            loop_radius_m: self.loop_radius_m,
-            loop_min_gap: self.loop_min_gap,
-            refine_distance_m: self.refine_distance_m,
-            refine_mutual: self.refine_mutual,
-            min_surface_share: self.min_surface_share,
-            loop_verify_distance_m: self.loop_verify_distance_m,
-            loop_max_fitness_m: self.loop_max_fitness_m,
-            loop_min_inlier_fraction: self.loop_min_inlier_fraction,
-            odom_sigma_m_per_m: self.odom_sigma_m_per_m,
-            odom_sigma_rad_per_s: self.odom_sigma_rad_per_s,
-            odom_sigma_vertical_m_per_m: self.odom_sigma_vertical_m_per_m,
-            inclination_sigma_deg: self.inclination_sigma_deg,
-            estimate_bias: self.estimate_bias,
-            bias_prior_deg: self.bias_prior_deg,
-            points_per_step: self.points_per_step,
-            factors_per_step: self.factors_per_step,
-            ..speleo_slam::graph_slam::SlamParams::default()
-        }
-    }
-}
-
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct HealthConfig {
@@ -497,6 +398,18 @@ impl Default for DevicesConfig {
             imu_port: "/dev/ttyUSB0".into(),
             imu_baud: 921_600,
             can_interface: "can0".into(),
+        }
+    }
+}
+
+impl ConfigError {
+    /// A component's refusal of a value in `section`, named by its key there.
+    pub(crate) fn of_param(section: &str, e: speleo_params::ParamError) -> ConfigError {
+        match e.within(section) {
+            speleo_params::ParamError::OutOfRange { key, value, range } => {
+                ConfigError::OutOfRange { key, value, range }
+            }
+            speleo_params::ParamError::Invalid { key, why } => ConfigError::Invalid { key, why },
         }
     }
 }
@@ -811,90 +724,10 @@ impl Config {
         ] {
             range(key, v, lo, hi, text)?;
         }
-        let sl = &self.slam;
-        range(
-            "slam.keyframe_capacity",
-            sl.keyframe_capacity,
-            2,
-            100_000,
-            "2..=100000",
-        )?;
-        range(
-            "slam.active_keyframes",
-            sl.active_keyframes,
-            2,
-            100_000,
-            "2..=100000",
-        )?;
-        range(
-            "slam.max_scan_points",
-            sl.max_scan_points,
-            100,
-            1_000_000,
-            "100..=1000000",
-        )?;
-        range(
-            "slam.submap_keyframes",
-            sl.submap_keyframes,
-            1,
-            1000,
-            "1..=1000",
-        )?;
-        range(
-            "slam.factors_per_step",
-            sl.factors_per_step,
-            10,
-            1_000_000,
-            "10..=1000000",
-        )?;
-        range("slam.neighbors", sl.neighbors, 1, 6, "1..=6")?;
-        range(
-            "slam.loop_min_inlier_fraction",
-            sl.loop_min_inlier_fraction,
-            0.0,
-            1.0,
-            "0..=1",
-        )?;
-        range(
-            "slam.points_per_step",
-            sl.points_per_step,
-            100,
-            1_000_000,
-            "100..=1000000",
-        )?;
-        for (key, v) in [
-            ("slam.keyframe_distance_m", sl.keyframe_distance_m),
-            ("slam.keyframe_angle_deg", sl.keyframe_angle_deg),
-            ("slam.voxel_m", sl.voxel_m),
-            ("slam.max_range_m", sl.max_range_m),
-            ("slam.loop_radius_m", sl.loop_radius_m),
-            ("slam.refine_distance_m", sl.refine_distance_m),
-            ("slam.loop_verify_distance_m", sl.loop_verify_distance_m),
-            ("slam.loop_max_fitness_m", sl.loop_max_fitness_m),
-            ("slam.loop_min_inlier_fraction", sl.loop_min_inlier_fraction),
-            ("slam.odom_sigma_m_per_m", sl.odom_sigma_m_per_m),
-            ("slam.odom_sigma_rad_per_s", sl.odom_sigma_rad_per_s),
-            (
-                "slam.odom_sigma_vertical_m_per_m",
-                sl.odom_sigma_vertical_m_per_m,
-            ),
-            ("slam.inclination_sigma_deg", sl.inclination_sigma_deg),
-            ("slam.bias_prior_deg", sl.bias_prior_deg),
-        ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(ConfigError::Invalid {
-                    key: key.into(),
-                    why: format!("{v} is not a positive number"),
-                });
-            }
-        }
-        let m = sl.min_surface_share;
-        if !(0.0..=1.0).contains(&m) {
-            return Err(ConfigError::Invalid {
-                key: "slam.min_surface_share".into(),
-                why: format!("{m} is not a share from 0 to 1"),
-            });
-        }
+        self.slam
+            .params
+            .validate()
+            .map_err(|e| ConfigError::of_param("slam", e))?;
         let h = &self.health;
         range(
             "health.imu_timeout_ms",
@@ -1009,7 +842,7 @@ mod tests {
         // The default step (0.1) is 0.01 under a clearance of 0.11: valid,
         // although 0.1 as f32 is a hair over it.
         let c = Config::from_toml("[planner]\nground_clearance_m = 0.11\n").expect("read");
-        assert_eq!(c.planner.max_step_m, 0.1);
+        assert_eq!(c.planner.nav.trav.max_step_m, 0.1);
         let e = Config::from_toml("[planner]\nground_clearance_m = 0.105\n").expect_err("refused");
         assert!(e.to_string().contains("planner.max_step_m"), "{e}");
     }
@@ -1041,3 +874,6 @@ mod tests {
         assert!(Config::from_toml("[slam]\nmin_surface_share = 0.0\n").is_ok());
     }
 }
+
+#[cfg(test)]
+mod composed_tests;

@@ -408,8 +408,8 @@ pub fn run<C: FrameClock>(
         ),
         mount: crate::params::mount_pose(cfg),
     });
-    let planner =
-        planner_on.then(|| crate::planner_figures::figures(&built.planner, cfg.planner.max_nodes));
+    let planner = planner_on
+        .then(|| crate::planner_figures::figures(&built.planner, cfg.planner.nav.trav.max_nodes));
     let mut explored = None;
     let exploration = built.planner.nav.exploration().map(|e| {
         use crate::exploration_figures as ef;

@@ -81,31 +81,20 @@ pub fn follower(cfg: &Config) -> PurePursuit {
 /// The internal simulator: the simulated rover's build, the control
 /// task's follower and limits, `[simulator]`'s world and judgement.
 pub fn simulator(cfg: &Config) -> speleo_simulator::SimulatorParams {
-    let s = &cfg.simulator;
+    let s = &cfg.simulator.params;
     speleo_simulator::SimulatorParams {
         physics: cfg.sim.rover.clone(),
         follower: follower_params(cfg),
         limits: accel_limits(cfg),
         skid: skid_steer(cfg),
-        voxel_m: s.voxel_m,
-        max_blocks: s.max_blocks,
-        margin_m: s.margin_m,
-        dt_s: s.dt_s,
-        goal_tolerance_m: s.goal_tolerance_m,
         // The rover's own safety monitor stops it at its tilt limit: a
         // plan that tilts it past that fails on board as surely as one
         // that turns it over (in the garage, plans the simulation passed
         // at 32 degrees, a wheel down a ramp's side, stopped the rover
         // there).
         tip_over_deg: s.tip_over_deg.min(cfg.control.max_tilt_deg),
-        stuck_after_s: s.stuck_after_s,
-        newest_keyframes: s.newest_keyframes,
         base_height_m: base_height_m(cfg),
-        start_tilted: s.start_tilted,
-        start_tilted_over_deg: s.start_tilted_over_deg,
-        way_back_drop_m: s.way_back_drop_m,
-        overhang_depth_m: s.overhang_depth_m,
-        ..speleo_simulator::SimulatorParams::default()
+        ..s.clone()
     }
 }
 
@@ -175,10 +164,11 @@ pub fn driver(cfg: &Config, following_plans: bool) -> Driver {
             max_tilt_deg: c.max_tilt_deg,
             stuck_after_s: c.stuck_after_s,
             max_cross_track_m: c.max_cross_track_m,
-            max_step_m: cfg.planner.max_step_m,
-            max_slope_deg: cfg.planner.max_slope_deg,
+            // The step as the decimal written, not its f32.
+            max_step_m: speleo_params::decimal(cfg.planner.nav.trav.max_step_m),
+            max_slope_deg: cfg.planner.nav.trav.max_slope_deg,
             base_height_m: base_height_m(cfg),
-            front_m: 0.5 * cfg.planner.body_length_m,
+            front_m: 0.5 * cfg.planner.nav.surface.body_length_m,
             half_track_m: 0.5 * cfg.rover.track_width_m,
             ..SafetyParams::default()
         }),
@@ -211,10 +201,10 @@ mod tests {
     fn the_internal_simulation_fails_a_plan_where_the_safety_monitor_would_stop_the_rover() {
         let mut cfg = Config::default();
         cfg.control.max_tilt_deg = 30.0;
-        cfg.simulator.tip_over_deg = 45.0;
+        cfg.simulator.params.tip_over_deg = 45.0;
         assert_eq!(simulator(&cfg).tip_over_deg, 30.0);
         // A lower tip-over angle of its own still counts.
-        cfg.simulator.tip_over_deg = 25.0;
+        cfg.simulator.params.tip_over_deg = 25.0;
         assert_eq!(simulator(&cfg).tip_over_deg, 25.0);
     }
 }

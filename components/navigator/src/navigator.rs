@@ -30,6 +30,8 @@ use crate::trace::{trace_cells_near, GRAPH_TRACE_RADIUS_M};
 use crate::NavigatorCounters;
 use speleo_messages::{ExplorationStatus, PlanMsg};
 
+mod validate;
+
 /// The phases whose steps are timed, in [`Navigator::timed_phase`] order.
 pub const STEP_PHASES: [&str; 6] = [
     "grow",
@@ -84,11 +86,18 @@ pub(crate) const WINDOW_GROWTH: f64 = 1.5;
 pub(crate) const EXPLORE_IMPROVE_EXPANSIONS: u64 = 20_000;
 
 /// The navigator's settings: the growth window, the query's rhythm and
-/// the search's, with the graph's and the lattice's own.
+/// the search's, with the graph's and the lattice's own (serialized by
+/// their crates: the configuration writes all three in one table).
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(default, deny_unknown_fields)
+)]
 pub struct NavigatorParams {
     /// Side of the square the graph is grown in, and the most it grows to
-    /// after queries that drove nothing, m.
+    /// after queries that drove nothing, m. The way to a garage ramp's
+    /// foot lay outside 30 m from the far side of the level.
     pub window_m: f64,
     pub window_max_m: f64,
     /// Following a route, the goal lies this far ahead along it, m.
@@ -101,7 +110,9 @@ pub struct NavigatorParams {
     /// ARA*'s first inflation and its fall after each solution.
     pub initial_eps: f64,
     pub eps_step: f64,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub trav: TravParams,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub surface: SurfaceParams,
 }
 

@@ -1,15 +1,29 @@
-//! Settings of the internal simulator.
+//! Settings of the internal simulator. Only the keys `[simulator]` has
+//! always had are read and written; the rest (the rover's build, the
+//! follower, the world's making) keep their defaults or are set by the
+//! caller.
 
 use speleo_control::{AccelLimits, FollowerParams, SkidSteer};
+use speleo_params::{range, ParamError};
 use speleo_physics::PhysicsParams;
 
+/// The internal simulator's settings.
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(default, deny_unknown_fields)
+)]
 pub struct SimulatorParams {
     /// The rover model (the same build the simulated hardware uses).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub physics: PhysicsParams,
     /// The follower clone: the control task's settings.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub follower: FollowerParams,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub limits: AccelLimits,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub skid: SkidSteer,
     /// TSDF voxel side, m (the paper's mesh: 5 cm), and its block pool.
     pub voxel_m: f64,
@@ -17,27 +31,35 @@ pub struct SimulatorParams {
     /// The world is the box around the plan grown by this, m.
     pub margin_m: f64,
     /// Keyframes whose sensor is within this of that box are integrated, m,
-    /// the newest `newest_keyframes` of them.
+    /// the newest `newest_keyframes` of them (older passes may not agree
+    /// with them before SLAM closes the loop).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub cloud_range_m: f64,
     pub newest_keyframes: usize,
     /// Width of a meshing tile (one rapier collider each), m.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub tile_m: f64,
     /// Physics step, s.
     pub dt_s: f64,
     /// The rover stands this long before it drives, s (it settles).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub settle_s: f64,
     /// The goal is reached within this distance, m.
     pub goal_tolerance_m: f64,
     /// The time allowed: this many times the plan's length at cruise
     /// speed, plus `time_extra_s`.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub time_factor: f64,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub time_extra_s: f64,
     /// A tilt over this is a tip-over, deg.
     pub tip_over_deg: f64,
     /// Commanded for this long without this much progress: stuck.
     pub stuck_after_s: f64,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub stuck_progress_m: f64,
     /// Ground under base_link, m.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub base_height_m: f64,
     /// Start the simulated rover pitched and rolled as it stands (the
     /// start's [`crate::Stance`]), the unseen ground under it following
@@ -119,6 +141,53 @@ impl Default for SimulatorParams {
 }
 
 impl SimulatorParams {
+    /// The first configurable setting out of the range the rover accepts,
+    /// by its key (stricter than [`SimulatorParams::check`]).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        range("voxel_m", self.voxel_m, 0.01, 0.5, "0.01..=0.5")?;
+        range("max_blocks", self.max_blocks, 64, 1 << 20, "64..=1048576")?;
+        range("margin_m", self.margin_m, 0.5, 20.0, "0.5..=20")?;
+        range("dt_s", self.dt_s, 0.0005, 0.01, "0.0005..=0.01")?;
+        range(
+            "goal_tolerance_m",
+            self.goal_tolerance_m,
+            0.05,
+            5.0,
+            "0.05..=5",
+        )?;
+        range("tip_over_deg", self.tip_over_deg, 5.0, 90.0, "5..=90")?;
+        range("stuck_after_s", self.stuck_after_s, 0.5, 120.0, "0.5..=120")?;
+        range(
+            "newest_keyframes",
+            self.newest_keyframes,
+            1,
+            100_000,
+            "1..=100000",
+        )?;
+        range(
+            "start_tilted_over_deg",
+            self.start_tilted_over_deg,
+            0.0,
+            90.0,
+            "0..=90",
+        )?;
+        range(
+            "way_back_drop_m",
+            self.way_back_drop_m,
+            0.0,
+            100.0,
+            "0..=100",
+        )?;
+        range(
+            "overhang_depth_m",
+            self.overhang_depth_m,
+            0.0,
+            10.0,
+            "0..=10",
+        )
+    }
+
+    /// Why these settings cannot work, if they cannot.
     pub fn check(&self) -> Result<(), String> {
         let positive = [
             ("voxel_m", self.voxel_m),
@@ -160,5 +229,20 @@ impl SimulatorParams {
             return Err("simulator newest_keyframes must be positive".into());
         }
         self.physics.validate()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_are_valid_and_a_value_out_of_range_is_named() {
+        SimulatorParams::default().validate().expect("the rover's");
+        let p = SimulatorParams {
+            dt_s: 0.02,
+            ..SimulatorParams::default()
+        };
+        assert_eq!(p.validate().expect_err("too coarse").key(), "dt_s");
     }
 }

@@ -14,6 +14,7 @@ pub mod g2o;
 pub mod graph_slam;
 pub mod initialize;
 pub mod lie;
+pub mod params;
 pub mod registration;
 pub mod solver;
 pub mod staging;

@@ -1,7 +1,16 @@
-//! What the traversability map knows of the robot.
+//! What the traversability map knows of the robot. Only the keys
+//! `[planner]` has always had are read and written; the rest keep their
+//! defaults.
+
+use speleo_params::{decimal, range, ParamError};
 
 /// Limits and robot dimensions (m, degrees).
 #[derive(Clone, Debug, PartialEq)]
+#[cfg_attr(
+    feature = "serde",
+    derive(serde::Serialize, serde::Deserialize),
+    serde(default, deny_unknown_fields)
+)]
 pub struct TravParams {
     /// Steepest support plane the robot drives.
     pub max_slope_deg: f64,
@@ -11,9 +20,11 @@ pub struct TravParams {
     pub max_step_m: f32,
     /// Unobserved gaps in the ground up to this wide are bridged where
     /// ground continues beyond them (0: never).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub max_gap_m: f64,
     /// Radius of the ground that carries the robot (the support plane is
     /// fitted over it).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub footprint_radius_m: f64,
     /// Radius, from the node, of the ring of cells where a deep drop
     /// blocks the node (no ring when within the footprint; 0, off, by
@@ -28,15 +39,20 @@ pub struct TravParams {
     pub deep_drop_m: f32,
     /// Radius the body covers in every orientation (half its width): the
     /// orientation-free obstacle check looks only there.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub inscribed_radius_m: f64,
     /// The body spans from this height above the plane...
     pub ground_clearance_m: f32,
     /// ...to this one.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub robot_height_m: f32,
     /// Fewer plane inliers make a patch unknown (the paper: 5).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub min_inliers: usize,
     /// Distance from the plane that makes a point an inlier.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub inlier_distance_m: f32,
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub ransac_iterations: usize,
     /// Most patches the map holds.
     pub max_nodes: usize,
@@ -44,6 +60,7 @@ pub struct TravParams {
     /// dense grid (4 bytes a cell, taken at construction), which keeps
     /// growth's lookups in the caches. Larger windows, and growth without
     /// one, hash their cells.
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub max_window_cells: usize,
 }
 
@@ -76,6 +93,32 @@ impl Default for TravParams {
 }
 
 impl TravParams {
+    /// The first configurable limit out of the range the rover accepts, by
+    /// its key (stricter than [`TravParams::check`]).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        range("max_nodes", self.max_nodes, 16, 1 << 22, "16..=4194304")?;
+        range("max_slope_deg", self.max_slope_deg, 1.0, 80.0, "1..=80")?;
+        // Under the body's top (`robot_height_m`, 0.7 m).
+        let clearance = decimal(self.ground_clearance_m);
+        range("ground_clearance_m", clearance, 0.02, 0.69, "0.02..=0.69")?;
+        // The bound is a difference of decimals: a micrometre of slack.
+        range(
+            "max_step_m",
+            decimal(self.max_step_m),
+            0.01,
+            clearance - 0.01 + 1e-6,
+            "0.01..=ground_clearance_m - 0.01",
+        )?;
+        range("drop_clearance_m", self.drop_clearance_m, 0.0, 5.0, "0..=5")?;
+        range(
+            "deep_drop_m",
+            decimal(self.deep_drop_m),
+            0.01,
+            100.0,
+            "0.01..=100",
+        )
+    }
+
     /// Why these parameters cannot work, if they cannot.
     pub fn check(&self) -> Result<(), String> {
         let positive = [
@@ -112,5 +155,40 @@ impl TravParams {
             );
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_limits_validate_as_the_decimals_written() {
+        TravParams::default()
+            .validate()
+            .expect("the rover's limits");
+        // 0.1 as f32 is a hair over 0.11 - 0.01: the decimals compare.
+        let p = TravParams {
+            ground_clearance_m: 0.11,
+            ..TravParams::default()
+        };
+        p.validate().expect("a step 0.01 under the clearance");
+        let p = TravParams {
+            ground_clearance_m: 0.105,
+            ..TravParams::default()
+        };
+        let e = p.validate().expect_err("the step reaches the clearance");
+        assert_eq!(e.key(), "max_step_m", "{e}");
+        let p = TravParams {
+            ground_clearance_m: 0.02,
+            max_step_m: 0.01,
+            ..TravParams::default()
+        };
+        p.validate().expect("the lowest clearance as written");
+        let p = TravParams {
+            max_slope_deg: 85.0,
+            ..TravParams::default()
+        };
+        assert_eq!(p.validate().expect_err("too steep").key(), "max_slope_deg");
     }
 }

@@ -215,7 +215,7 @@ impl<'r, 'h> Tasks<'r, 'h> {
         if let Some(f) = &cfg.sim.false_loop_closure {
             slam.inject_false_loop(f.clone());
         }
-        let kf_capacity = cfg.slam.keyframe_capacity;
+        let kf_capacity = cfg.slam.params.keyframe_capacity;
         let maps = if maps_on {
             bus.keyframe_clouds =
                 speleo_mapping::KeyframeClouds::new(kf_capacity, cfg.maps.keyframe_points);

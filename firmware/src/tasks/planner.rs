@@ -16,7 +16,7 @@ use speleo_slam::lie::Pose;
 use speleo_simulator::InternalSim;
 
 use crate::bus::Bus;
-use crate::config::{Config, PlannerConfig};
+use crate::config::Config;
 use crate::params;
 use crate::simulator_clouds::MapClouds;
 use crate::simulator_host::{SimulatorHost, SimulatorWorker};
@@ -81,13 +81,11 @@ impl PlannerTask {
         let (pc, route) = if on {
             (cfg.planner.clone(), &cfg.control.path[..])
         } else {
-            let idle = PlannerConfig {
-                max_nodes: 16,
-                window_m: 2.0,
-                window_max_m: 2.0,
-                goal_ahead_m: 1.0,
-                ..cfg.planner.clone()
-            };
+            let mut idle = cfg.planner.clone();
+            idle.nav.trav.max_nodes = 16;
+            idle.nav.window_m = 2.0;
+            idle.nav.window_max_m = 2.0;
+            idle.nav.goal_ahead_m = 1.0;
             (idle, &[][..])
         };
         let mut nav = Navigator::new(
@@ -125,8 +123,12 @@ fn exploration(cfg: &Config, host: &mut SimulatorHost) -> Result<Exploration, St
     if cfg.simulator.enabled {
         ex = ex.with_simulator(InternalSim::new(params::simulator(cfg))?);
         if cfg.simulator.worker_units > 0 {
-            let w = SimulatorWorker::spawn(cfg.simulator.worker_units, cfg.simulator.dt_s, slot())
-                .map_err(|e| format!("the simulator's worker: {e}"))?;
+            let w = SimulatorWorker::spawn(
+                cfg.simulator.worker_units,
+                cfg.simulator.params.dt_s,
+                slot(),
+            )
+            .map_err(|e| format!("the simulator's worker: {e}"))?;
             host.worker = Some(w);
         }
         if let Some(dir) = &cfg.simulator.dump_dir {
