@@ -247,12 +247,12 @@ impl RecorderTap {
         }
     }
 
-    /// Hash over every output message so far, in order.
     /// Hash of every raw input recorded (device, receive time and bytes).
     pub fn input_hash(&self) -> u64 {
         self.input_hasher.digest()
     }
 
+    /// Hash over every output message so far, in order.
     pub fn output_hash(&self) -> u64 {
         self.hasher.digest()
     }
