@@ -351,3 +351,54 @@ fn the_shipped_matrices_plan_and_each_holds_the_cases_of_the_one_before() {
     assert!(dev.is_subset(&nightly), "{:?}", dev.difference(&nightly));
     assert!(nightly.is_subset(&full), "{:?}", nightly.difference(&full));
 }
+
+/// A campaign run with its validations dumped, then replayed on the true
+/// world: on flat ground the map and the truth agree on every verdict.
+#[test]
+fn a_campaigns_validations_replay_on_the_true_world() {
+    let t = tempfile::tempdir().unwrap();
+    let matrix = t.path().join("flat.toml");
+    std::fs::write(
+        &matrix,
+        "name = \"flat\"\ntimeout_s = 600\n[[group]]\nworlds = [\"flat\"]\nduration_s = 40\n",
+    )
+    .unwrap();
+    let dir = t.path().join("c");
+    let d = dir.to_str().unwrap();
+    ok(&speleo(&[
+        "campaign",
+        "plan",
+        matrix.to_str().unwrap(),
+        "--out",
+        d,
+    ]));
+    let o = speleo(&["campaign", "validations", d]);
+    assert!(!o.status.success(), "nothing dumped yet");
+    assert!(
+        text(&o.stderr).contains("--dump-validations"),
+        "{}",
+        text(&o.stderr)
+    );
+    ok(&speleo(&["campaign", "run", d, "--dump-validations"]));
+    assert!(dir.join("cases/0000/validations/truth.csv").exists());
+    let csv = t.path().join("v.csv");
+    let out = ok(&speleo(&[
+        "campaign",
+        "validations",
+        d,
+        "--csv",
+        csv.to_str().unwrap(),
+    ]));
+    let rows = std::fs::read_to_string(&csv).unwrap().lines().count() - 1;
+    assert!(rows >= 1, "{out}");
+    assert!(
+        out.starts_with(&format!(
+            "{rows} validations replayed (1 cases, 0 skipped, 0 begun"
+        )),
+        "{out}"
+    );
+    assert!(
+        out.contains(&format!("as on board     {rows:>3}/{rows:<4}")),
+        "{out}"
+    );
+}

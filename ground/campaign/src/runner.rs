@@ -11,6 +11,8 @@ use crate::manifest::{Manifest, CONFIG, LOG, REPORT};
 use crate::matrix::Case;
 use crate::outcome::{host_name, tail, Outcome, Status};
 
+/// The folder in a case's where its validations are dumped.
+pub const VALIDATIONS: &str = "validations";
 /// Lines of a failed case's log kept in its outcome.
 const LOG_TAIL_LINES: usize = 20;
 /// How often a running case is looked at.
@@ -33,6 +35,10 @@ pub struct RunTally {
 pub struct Program {
     pub exe: PathBuf,
     pub leading_args: Vec<String>,
+    /// Each case writes its internal simulator's validations into its
+    /// folder's [`VALIDATIONS`] (`speleo sim --dump-validations`), for
+    /// `speleo campaign validations` to replay on the true worlds.
+    pub dump_validations: bool,
 }
 
 impl Program {
@@ -42,6 +48,7 @@ impl Program {
         Ok(Program {
             exe,
             leading_args: Vec::new(),
+            dump_validations: false,
         })
     }
 }
@@ -131,7 +138,11 @@ pub fn execute(cd: &Path, case: &Case, p: &Program, timeout_s: f64) -> Result<Ou
         .arg("--config")
         .arg(cd.join(CONFIG))
         .arg("--report")
-        .arg(&report)
+        .arg(&report);
+    if p.dump_validations {
+        cmd.arg("--dump-validations").arg(cd.join(VALIDATIONS));
+    }
+    cmd
         // A log file, not a terminal: no colour codes in it.
         .env("NO_COLOR", "1")
         .stdin(Stdio::null())

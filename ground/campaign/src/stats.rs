@@ -68,7 +68,7 @@ pub fn spread(values: &[f64]) -> Option<Spread> {
 }
 
 /// The q-quantile of sorted values, interpolated.
-fn quantile(sorted: &[f64], q: f64) -> f64 {
+pub fn quantile(sorted: &[f64], q: f64) -> f64 {
     let pos = q * (sorted.len() - 1) as f64;
     let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
     sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)

@@ -19,6 +19,13 @@ pub enum CampaignCommand {
     /// failures by cause and place, the figures' spread, and a paired
     /// comparison with a baseline campaign.
     Report(CampaignReportArgs),
+    /// Replay every validation the cases dumped (`run --dump-validations`)
+    /// on the map as the mission did, on the map from the start's true
+    /// attitude, and on the world's true surface from where the rover
+    /// truly stood: how often each verdict agrees with the truth, the
+    /// quantiles of the most tilt's error and of SLAM's error at the
+    /// start. The margins of the internal simulation are set from these.
+    Validations(CampaignValidationsArgs),
 }
 
 #[derive(Args, Debug)]
@@ -44,6 +51,26 @@ pub struct CampaignRunArgs {
     /// not.
     #[arg(long)]
     pub verify: bool,
+    /// Each case also writes its internal simulator's validations into
+    /// its folder (`validations/`), for `speleo campaign validations`.
+    /// About 0.6 MB a validation.
+    #[arg(long, conflicts_with = "verify")]
+    pub dump_validations: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct CampaignValidationsArgs {
+    #[arg(value_name = "DIR")]
+    pub dir: PathBuf,
+    /// Write one row a validation as CSV.
+    #[arg(long, value_name = "OUT.csv")]
+    pub csv: Option<PathBuf>,
+    /// Write the figures as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub json: Option<PathBuf>,
+    /// Cases replayed side by side (default: the machine's cores).
+    #[arg(long, value_name = "N")]
+    pub jobs: Option<usize>,
 }
 
 #[derive(Args, Debug)]

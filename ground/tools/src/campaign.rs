@@ -38,6 +38,7 @@ pub fn command(c: CampaignCommand, progress: bool) -> Result<ExitCode, Error> {
         CampaignCommand::Plan(a) => plan(a),
         CampaignCommand::Run(a) => run(a, progress),
         CampaignCommand::Report(a) => report(a),
+        CampaignCommand::Validations(a) => crate::validations::command(a),
     }
 }
 
@@ -106,7 +107,10 @@ fn resolve_mesh_paths(m: &mut Matrix, base: &Path) {
 }
 
 fn run(a: CampaignRunArgs, progress: bool) -> Result<ExitCode, Error> {
-    let program = Program::this()?;
+    let program = Program {
+        dump_validations: a.dump_validations,
+        ..Program::this()?
+    };
     let m = Manifest::load(&a.dir)?;
     if a.verify {
         // Every case that ran its mission, or the one asked for.

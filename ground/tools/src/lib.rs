@@ -18,6 +18,7 @@ pub mod plan_world;
 pub mod plot;
 pub mod register;
 pub mod validate;
+pub mod validations;
 pub mod wcet;
 
 /// A tool's error, printed by the `speleo` binary.
