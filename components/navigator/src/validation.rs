@@ -118,7 +118,9 @@ impl Navigator {
             sim.check_way_back();
         }
         if let Some(d) = host.record() {
-            d.begin(now, start, way_back, &mut poses);
+            // Stamped with the pose's time: a query's later goals start
+            // from the pose its first began with.
+            d.begin(self.query.began_ns, start, way_back, &mut poses);
         }
         ex.validation_began_ns = now;
         // The old world's teardown needs no clouds: on the worker already.

@@ -40,9 +40,9 @@ pub struct RecordedKeyframe {
 /// One validation's inputs and the verdict the mission got from them.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ValidationCase {
-    /// Mission time the validation began, ns (the rover stands still
-    /// then: a sample of the true track at that time places it in a
-    /// simulated world).
+    /// Mission time of the start's pose, ns: when the query that planned
+    /// from it began (the rover stands still then: a sample of the true
+    /// track at that time places it in a simulated world).
     pub began_ns: u64,
     pub start: Stance,
     /// The way back was driven too ([`crate::InternalSim::check_way_back`]).
