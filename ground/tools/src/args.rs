@@ -71,6 +71,12 @@ pub struct CampaignValidationsArgs {
     /// Cases replayed side by side (default: the machine's cores).
     #[arg(long, value_name = "N")]
     pub jobs: Option<usize>,
+    /// A candidate configuration, laid over each case's: every plan is
+    /// also replayed on the map with its simulator, and the verdicts it
+    /// changes are counted toward and away from the truth (a change to
+    /// the internal simulation judged on the same plans).
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
 }
 
 #[derive(Args, Debug)]

@@ -51,6 +51,9 @@ pub struct Row {
     pub on_board: Drove,
     /// On the map, started at the attitude the rover truly had.
     pub tilted: Drove,
+    /// On the map with the candidate configuration (`--config`), started
+    /// as it starts the rover.
+    pub candidate: Option<Drove>,
     /// On the world's true surface from the true pose and attitude.
     pub truth: Drove,
     /// SLAM's error when it began: x, y, z m, yaw deg (map frame).
@@ -136,6 +139,12 @@ pub struct Figures {
     pub skipped: Vec<String>,
     pub on_board: Agreement,
     pub tilted: Agreement,
+    /// With the candidate configuration, when one was given.
+    pub candidate: Option<Agreement>,
+    /// Plans whose verdict (reached or not) the candidate changes: to the
+    /// truth's, and away from it.
+    pub candidate_mends: usize,
+    pub candidate_spoils: usize,
     /// Verdict pairs (map as on board -> true surface) that differ, counted.
     pub disagreements: BTreeMap<String, usize>,
     /// The true most tilt less the map's, deg, over the validations that
@@ -173,6 +182,24 @@ pub fn figures(all: &[Row], cases: usize, skipped: Vec<String>) -> Figures {
     for r in &rows {
         f.on_board.add(r.on_board.outcome, r.truth.outcome);
         f.tilted.add(r.tilted.outcome, r.truth.outcome);
+        if let Some(c) = &r.candidate {
+            f.candidate
+                .get_or_insert_with(Agreement::default)
+                .add(c.outcome, r.truth.outcome);
+            let pass = |o: Outcome| o == Outcome::Reached;
+            let (was, now, truth) = (
+                pass(r.on_board.outcome),
+                pass(c.outcome),
+                pass(r.truth.outcome),
+            );
+            if was != now {
+                if now == truth {
+                    f.candidate_mends += 1;
+                } else {
+                    f.candidate_spoils += 1;
+                }
+            }
+        }
         if r.on_board.outcome != r.truth.outcome {
             *f.disagreements
                 .entry(format!("{:?} -> {:?}", r.on_board.outcome, r.truth.outcome))
@@ -258,16 +285,26 @@ fn case_files(dir: &Path) -> Result<Vec<(u64, PathBuf)>, String> {
 }
 
 /// One validation replayed the three ways.
-fn row(
-    case: &Case,
-    number: u64,
-    v: &ValidationCase,
-    truth: &str,
-    world: &speleo_twin::world::World,
-    rays: &speleo_twin::lidar::LidarWorld,
-    params: &SimulatorParams,
-) -> Result<Row, Error> {
+/// What one case's validations are replayed with.
+struct CaseWorld {
+    id: usize,
+    /// The case's simulator, and the candidate's.
+    params: SimulatorParams,
+    candidate: Option<SimulatorParams>,
+    /// The true track (truth.csv), the world and a ray caster on it.
+    truth: String,
+    world: speleo_twin::world::World,
+    rays: speleo_twin::lidar::LidarWorld,
+}
+
+fn row(w: &CaseWorld, number: u64, v: &ValidationCase) -> Result<Row, Error> {
+    let params = &w.params;
     let on_board = replay(v, params.clone(), None, None)?;
+    let candidate = w
+        .candidate
+        .as_ref()
+        .map(|p| replay(v, p.clone(), None, None).map(|d| Drove::from(&d)))
+        .transpose()?;
     // The rover truly stands as it stands: the true drive and the tilted
     // replay start at the attitude (an IMU measures it to a fraction of
     // a degree), whatever the mission's configuration does.
@@ -275,7 +312,7 @@ fn row(
         start_tilted: true,
         ..params.clone()
     };
-    let (start, plan, slam_error) = in_world(v, truth)?;
+    let (start, plan, slam_error) = in_world(v, &w.truth)?;
     let tilted_case = ValidationCase {
         start: speleo_simulator::Stance {
             pitch: start.pitch,
@@ -285,16 +322,17 @@ fn row(
         ..v.clone()
     };
     let tilted = replay(&tilted_case, upright.clone(), None, None)?;
-    let ground = crop(&world.mesh, start.position, &plan, params.margin_m);
+    let ground = crop(&w.world.mesh, start.position, &plan, params.margin_m);
     let t = drive_on(ground, start, v.way_back, &plan, upright, None)?;
-    let height_errors = height_errors(start.position, &plan, rays);
+    let height_errors = height_errors(start.position, &plan, &w.rays);
     let true_start_tilt_deg = start.up()[2].clamp(-1.0, 1.0).acos().to_degrees();
     Ok(Row {
-        case: case.id,
+        case: w.id,
         validation: number,
         began_s: v.began_ns as f64 * 1e-9,
         on_board: Drove::from(&on_board),
         tilted: Drove::from(&tilted),
+        candidate,
         truth: Drove::from(&t),
         slam_error,
         true_start_tilt_deg,
@@ -303,8 +341,29 @@ fn row(
     })
 }
 
+/// `top`'s keys laid over `base`'s, tables merged key by key.
+fn lay_over(base: &mut toml::Table, top: &toml::Table) {
+    for (k, v) in top {
+        match (base.get_mut(k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(t)) => lay_over(b, t),
+            _ => {
+                base.insert(k.clone(), v.clone());
+            }
+        }
+    }
+}
+
+/// The case's configuration with `candidate` laid over it, checked.
+fn candidate_config(case_text: &str, candidate: &toml::Table) -> Result<Config, Error> {
+    let mut merged: toml::Table = toml::from_str(case_text)?;
+    lay_over(&mut merged, candidate);
+    let cfg = Config::from_toml(&toml::to_string(&merged)?)?;
+    cfg.validate()?;
+    Ok(cfg)
+}
+
 /// Every validation of one case, replayed; the rows and what was skipped.
-fn case_rows(dir: &Path, case: &Case) -> (Vec<Row>, Vec<String>) {
+fn case_rows(dir: &Path, case: &Case, candidate: Option<&toml::Table>) -> (Vec<Row>, Vec<String>) {
     let cd = Manifest::case_dir(dir, case);
     let vd = cd.join(VALIDATIONS);
     let mut skipped = Vec::new();
@@ -314,21 +373,34 @@ fn case_rows(dir: &Path, case: &Case) -> (Vec<Row>, Vec<String>) {
         Err(e) => return (rows, vec![format!("case {}: {e}", case.id)]),
     };
     let setup = || -> Result<_, Error> {
-        let cfg = Config::load(&cd.join(CONFIG))?;
+        let config_path = cd.join(CONFIG);
+        let text = std::fs::read_to_string(&config_path)
+            .map_err(|e| format!("{}: {e}", config_path.display()))?;
+        let cfg = Config::from_toml(&text)?;
         cfg.validate()?;
+        let candidate = candidate
+            .map(|c| candidate_config(&text, c).map(|c| speleo_firmware::params::simulator(&c)))
+            .transpose()?;
         let truth_path = vd.join(speleo_firmware::validation_dump::TRUTH_FILE);
         let truth = std::fs::read_to_string(&truth_path)
             .map_err(|e| format!("{}: {e}", truth_path.display()))?;
         let world = speleo_twin::world::World::build(&case.world, case.world_seed)?;
         let rays = speleo_twin::lidar::LidarWorld::new(&world.mesh)?;
-        Ok((speleo_firmware::params::simulator(&cfg), truth, world, rays))
+        Ok(CaseWorld {
+            id: case.id,
+            params: speleo_firmware::params::simulator(&cfg),
+            candidate,
+            truth,
+            world,
+            rays,
+        })
     };
-    let (params, truth, world, rays) = match setup() {
+    let w = match setup() {
         Ok(s) => s,
         Err(e) => return (rows, vec![format!("case {}: {e}", case.id)]),
     };
     for (n, path) in files {
-        match read_case(&path).and_then(|v| row(case, n, &v, &truth, &world, &rays, &params)) {
+        match read_case(&path).and_then(|v| row(&w, n, &v)) {
             Ok(r) => rows.push(r),
             Err(e) => skipped.push(format!("case {} validation {n}: {e}", case.id)),
         }
@@ -338,7 +410,12 @@ fn case_rows(dir: &Path, case: &Case) -> (Vec<Row>, Vec<String>) {
 
 /// Every case's validations replayed on `jobs` threads, in the cases'
 /// order.
-pub fn replay_all(dir: &Path, m: &Manifest, jobs: usize) -> (Vec<Row>, Vec<String>, usize) {
+pub fn replay_all(
+    dir: &Path,
+    m: &Manifest,
+    jobs: usize,
+    candidate: Option<&toml::Table>,
+) -> (Vec<Row>, Vec<String>, usize) {
     let cases: Vec<&Case> = m
         .cases
         .iter()
@@ -351,7 +428,7 @@ pub fn replay_all(dir: &Path, m: &Manifest, jobs: usize) -> (Vec<Row>, Vec<Strin
             s.spawn(|| loop {
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(case) = cases.get(k) else { break };
-                let r = case_rows(dir, case);
+                let r = case_rows(dir, case, candidate);
                 done.lock().unwrap_or_else(|p| p.into_inner()).push((k, r));
             });
         }
@@ -370,13 +447,13 @@ pub fn replay_all(dir: &Path, m: &Manifest, jobs: usize) -> (Vec<Row>, Vec<Strin
 pub fn write_csv(rows: &[Row], w: &mut dyn std::io::Write) -> Result<(), Error> {
     writeln!(
         w,
-        "case,validation,began_s,on_board,on_board_tilt_deg,tilted,tilted_tilt_deg,truth,truth_tilt_deg,slam_dx_m,slam_dy_m,slam_dz_m,slam_dyaw_deg,true_start_tilt_deg"
+        "case,validation,began_s,on_board,on_board_tilt_deg,tilted,tilted_tilt_deg,candidate,candidate_tilt_deg,truth,truth_tilt_deg,slam_dx_m,slam_dy_m,slam_dz_m,slam_dyaw_deg,true_start_tilt_deg"
     )?;
     for r in rows {
         let [dx, dy, dz, dyaw] = r.slam_error;
         writeln!(
             w,
-            "{},{},{:.2},{:?},{:.2},{:?},{:.2},{:?},{:.2},{dx:.3},{dy:.3},{dz:.3},{dyaw:.2},{:.2}",
+            "{},{},{:.2},{:?},{:.2},{:?},{:.2},{},{},{:?},{:.2},{dx:.3},{dy:.3},{dz:.3},{dyaw:.2},{:.2}",
             r.case,
             r.validation,
             r.began_s,
@@ -384,6 +461,9 @@ pub fn write_csv(rows: &[Row], w: &mut dyn std::io::Write) -> Result<(), Error> 
             r.on_board.most_tilt_deg,
             r.tilted.outcome,
             r.tilted.most_tilt_deg,
+            r.candidate.map_or(String::new(), |c| format!("{:?}", c.outcome)),
+            r.candidate
+                .map_or(String::new(), |c| format!("{:.2}", c.most_tilt_deg)),
             r.truth.outcome,
             r.truth.most_tilt_deg,
             r.true_start_tilt_deg
@@ -406,7 +486,14 @@ pub fn print(f: &Figures) {
     }
     println!("verdicts against the true surface (pass = goal reached):");
     println!("  start            agree  both pass  passed in error  refused in vain  both fail");
-    for (name, a) in [("as on board", &f.on_board), ("true attitude", &f.tilted)] {
+    for (name, a) in [
+        ("as on board", Some(&f.on_board)),
+        ("true attitude", Some(&f.tilted)),
+        ("candidate", f.candidate.as_ref()),
+    ]
+    .into_iter()
+    .filter_map(|(n, a)| Some((n, a?)))
+    {
         println!(
             "  {name:<15} {:>3}/{:<4} {:>9} {:>16} {:>16} {:>10}",
             a.agree(),
@@ -415,6 +502,14 @@ pub fn print(f: &Figures) {
             a.passed_in_error,
             a.refused_in_vain,
             a.both_fail
+        );
+    }
+    if f.candidate.is_some() {
+        println!(
+            "  the candidate changes {} verdicts: {} to the truth's, {} away from it",
+            f.candidate_mends + f.candidate_spoils,
+            f.candidate_mends,
+            f.candidate_spoils
         );
     }
     for (pair, n) in &f.disagreements {
@@ -454,7 +549,21 @@ pub fn command(a: CampaignValidationsArgs) -> Result<ExitCode, Error> {
     let jobs = a
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let (rows, skipped, cases) = replay_all(&a.dir, &m, jobs);
+    let candidate: Option<toml::Table> = a
+        .config
+        .as_ref()
+        .map(|p| -> Result<toml::Table, Error> {
+            let text = std::fs::read_to_string(p)
+                .map_err(|e| format!("cannot read {}: {e}", p.display()))?;
+            let t = toml::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))?;
+            // Checked alone first: a bad key is named against its file.
+            Config::from_toml(&text)
+                .and_then(|c| c.validate().map(|()| c))
+                .map_err(|e| format!("{}: {e}", p.display()))?;
+            Ok(t)
+        })
+        .transpose()?;
+    let (rows, skipped, cases) = replay_all(&a.dir, &m, jobs, candidate.as_ref());
     if cases == 0 {
         return Err(format!(
             "no case of {} has a {VALIDATIONS}/ folder: run the campaign with --dump-validations",
@@ -493,6 +602,7 @@ mod tests {
             began_s: 0.0,
             on_board: d(on_board),
             tilted: d(on_board),
+            candidate: None,
             truth: d(truth),
             slam_error: [0.3, 0.4, -0.1, -2.0],
             true_start_tilt_deg: 5.0,
@@ -539,6 +649,45 @@ mod tests {
         assert_eq!((bands[1].1.n, bands[1].1.p50), (5, -0.05));
         assert_eq!(bands[4].1.n, 0, "no truth: not an error");
         assert_eq!(f.poses_without_truth, 5);
+    }
+
+    #[test]
+    fn a_candidate_is_counted_by_the_verdicts_it_brings_to_the_truth_and_away() {
+        use Outcome::*;
+        let with = |on_board, candidate, truth| Row {
+            candidate: Some(Drove {
+                outcome: candidate,
+                most_tilt_deg: 10.0,
+            }),
+            ..row((on_board, 10.0), (truth, 10.0))
+        };
+        let rows = [
+            with(TippedOver, Reached, Reached),
+            with(Stuck, Reached, Reached),
+            with(Reached, Stuck, Reached),
+            with(Reached, TippedOver, TippedOver),
+            // A failure for another: no verdict changed.
+            with(Stuck, TippedOver, Reached),
+        ];
+        let f = figures(&rows, 1, Vec::new());
+        assert_eq!((f.candidate_mends, f.candidate_spoils), (3, 1));
+        let c = f.candidate.expect("a candidate");
+        assert_eq!((c.both_pass, c.refused_in_vain, c.both_fail), (2, 2, 1));
+    }
+
+    #[test]
+    fn a_candidate_configuration_is_laid_over_the_cases_key_by_key() {
+        let case = "[sim]\nworld = \"flat\"\nduration_s = 4.0\n[simulator]\ntip_over_deg = 40.0\n";
+        let top: toml::Table = toml::from_str("[simulator]\nstart_tilted = true\n").expect("toml");
+        let cfg = candidate_config(case, &top).expect("valid");
+        assert!(cfg.simulator.params.start_tilted);
+        assert_eq!(
+            cfg.simulator.params.tip_over_deg, 40.0,
+            "the case's own kept"
+        );
+        assert_eq!(cfg.sim.world, "flat");
+        let bad: toml::Table = toml::from_str("[simulator]\ntip_over_deg = 200.0\n").expect("toml");
+        assert!(candidate_config(case, &bad).is_err());
     }
 
     #[test]
