@@ -296,25 +296,30 @@ fn two_runners_on_one_folder_run_each_case_once() {
     assert_eq!(outcomes(&dir).len(), 7);
 }
 
-#[test]
-fn a_case_past_its_time_limit_is_killed_and_counted_a_hang() {
-    let t = tempfile::tempdir().unwrap();
-    let matrix = t.path().join("slow.toml");
-    // A minute of mission cannot run within a second of wall time.
-    std::fs::write(
-        &matrix,
-        "name = \"slow\"\ntimeout_s = 1\n[[group]]\nworlds = [\"flat\"]\nduration_s = 60\n",
-    )
-    .unwrap();
-    let dir = t.path().join("c");
-    let d = dir.to_str().unwrap();
+/// `matrix` written into `t` and planned into `t/c`.
+fn planned(t: &Path, matrix: &str) -> PathBuf {
+    let path = t.join("matrix.toml");
+    std::fs::write(&path, matrix).unwrap();
+    let dir = t.join("c");
     ok(&speleo(&[
         "campaign",
         "plan",
-        matrix.to_str().unwrap(),
+        path.to_str().unwrap(),
         "--out",
-        d,
+        dir.to_str().unwrap(),
     ]));
+    dir
+}
+
+#[test]
+fn a_case_past_its_time_limit_is_killed_and_counted_a_hang() {
+    let t = tempfile::tempdir().unwrap();
+    // A minute of mission cannot run within a second of wall time.
+    let dir = planned(
+        t.path(),
+        "name = \"slow\"\ntimeout_s = 1\n[[group]]\nworlds = [\"flat\"]\nduration_s = 60\n",
+    );
+    let d = dir.to_str().unwrap();
     let started = Instant::now();
     let o = speleo(&["campaign", "run", d]);
     ok(&o);
@@ -357,21 +362,11 @@ fn the_shipped_matrices_plan_and_each_holds_the_cases_of_the_one_before() {
 #[test]
 fn a_campaigns_validations_replay_on_the_true_world() {
     let t = tempfile::tempdir().unwrap();
-    let matrix = t.path().join("flat.toml");
-    std::fs::write(
-        &matrix,
+    let dir = planned(
+        t.path(),
         "name = \"flat\"\ntimeout_s = 600\n[[group]]\nworlds = [\"flat\"]\nduration_s = 40\n",
-    )
-    .unwrap();
-    let dir = t.path().join("c");
+    );
     let d = dir.to_str().unwrap();
-    ok(&speleo(&[
-        "campaign",
-        "plan",
-        matrix.to_str().unwrap(),
-        "--out",
-        d,
-    ]));
     let o = speleo(&["campaign", "validations", d]);
     assert!(!o.status.success(), "nothing dumped yet");
     assert!(
