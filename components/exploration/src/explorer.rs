@@ -320,9 +320,9 @@ impl Explorer {
         true
     }
 
-    /// Going home from `at`: goal points `ahead_m`, then a metre less at a
-    /// time down to `nearest_m`, back along the track (home itself when
-    /// near).
+    /// Going home from `at`: goal points best first, back along the track
+    /// from `ahead_m` down to `nearest_m` and across to earlier track
+    /// points within `ahead_m` ([`crate::way_home::home_goals`]).
     pub fn home_goals(
         &self,
         at: [f64; 3],
@@ -334,13 +334,7 @@ impl Explorer {
             out(self.home);
             return;
         };
-        let mut ahead = ahead_m;
-        while ahead >= nearest_m {
-            if let Some(g) = self.trail.back_from(from, ahead) {
-                out(g);
-            }
-            ahead -= 1.0;
-        }
+        crate::way_home::home_goals(&self.trail, from, at, ahead_m, nearest_m, out);
     }
 }
 
@@ -363,9 +357,11 @@ mod tests {
         assert_eq!(e.phase(), ExplorerPhase::Returning(ReturnReason::Explored));
         let mut goals = Vec::new();
         e.home_goals([19.0, 0.0, 0.2], 8.0, 2.0, &mut |g| goals.push(g));
-        assert_eq!(goals.len(), 7);
-        // From the earliest track point within 2 m (x = 17), 8 m back.
+        // From the earliest track point within 2 m (x = 17), 8 m back, then
+        // each metre nearer, down to 2 m from the rover.
         assert!((goals[0][0] - 9.0).abs() < 1e-9, "{goals:?}");
+        assert!(goals.iter().all(|g| g[0] <= 17.0), "{goals:?}");
+        assert!(goals.len() >= 7, "{goals:?}");
         // A frontier seen on the way: exploring again, until it too is done.
         assert!(e.resume([19.0, 0.0]));
         assert_eq!(e.phase(), ExplorerPhase::Exploring);

@@ -13,6 +13,7 @@ pub mod coverage;
 pub mod energy;
 pub mod explorer;
 pub mod trail;
+pub mod way_home;
 
 pub use candidates::{Candidate, CandidateParams, CandidateScan, Pass, ScanCensus, MAX_CANDIDATES};
 pub use coverage::CoverageMap;

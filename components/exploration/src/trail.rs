@@ -9,6 +9,8 @@ pub struct Trail {
     /// The spacing asked for (thinning doubles `spacing_m`).
     base_spacing_m: f64,
     points: Vec<[f64; 3]>,
+    /// The track's length from home to each point, m (across).
+    along_m: Vec<f64>,
     capacity: usize,
 }
 
@@ -19,6 +21,7 @@ impl Trail {
             spacing_m,
             base_spacing_m: spacing_m,
             points: Vec::with_capacity(capacity),
+            along_m: Vec::with_capacity(capacity),
             capacity,
         }
     }
@@ -26,6 +29,7 @@ impl Trail {
     /// Forget the track (the spacing set at construction stays).
     pub fn clear(&mut self) {
         self.points.clear();
+        self.along_m.clear();
         self.spacing_m = self.base_spacing_m;
     }
 
@@ -50,7 +54,18 @@ impl Trail {
             }
             self.points.truncate(k);
             self.spacing_m *= 2.0;
+            self.along_m.clear();
+            for i in 0..self.points.len() {
+                let step = i
+                    .checked_sub(1)
+                    .map_or(0.0, |j| across(self.points[j], self.points[i]));
+                let before = self.along_m.last().copied().unwrap_or(0.0);
+                self.along_m.push(before + step);
+            }
         }
+        let step = self.points.last().map_or(0.0, |&l| across(l, p));
+        let before = self.along_m.last().copied().unwrap_or(0.0);
+        self.along_m.push(before + step);
         self.points.push(p);
     }
 
@@ -110,17 +125,22 @@ impl Trail {
     /// The length of the track from point `from` back to home, m (across,
     /// as [`Self::back_from`] walks it).
     pub fn length_back_from(&self, from: usize) -> f64 {
-        let end = (from + 1).min(self.points.len());
-        self.points[..end]
-            .windows(2)
-            .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
-            .sum()
+        self.along_m
+            .get(from)
+            .or(self.along_m.last())
+            .copied()
+            .unwrap_or(0.0)
     }
 }
 
 /// Track points more than this over or under the rover are on another
 /// level (a garage's floor under its deck), m.
 pub const LEVEL_M: f64 = 1.0;
+
+/// The distance from `a` to `b` across, m.
+fn across(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (b[0] - a[0]).hypot(b[1] - a[1])
+}
 
 /// Track point `p` lies within `reach_m` of `at` across, on its level.
 fn near(p: &[f64; 3], at: [f64; 3], reach_m: f64) -> bool {
