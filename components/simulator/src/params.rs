@@ -131,7 +131,7 @@ impl Default for SimulatorParams {
             stuck_after_s: 6.0,
             stuck_progress_m: 0.1,
             base_height_m: 0.9 * physics.wheel_radius_m,
-            start_tilted: false,
+            start_tilted: true,
             start_tilted_over_deg: 15.0,
             way_back_drop_m: 0.0,
             overhang_depth_m: 0.3,
