@@ -219,6 +219,8 @@ pub struct InternalSimFigures {
     pub rejected: u64,
     /// Refusals by outcome.
     pub rejected_by: BTreeMap<String, u64>,
+    /// Refusals by the pessimistic rollout of plans the nominal one passed.
+    pub rejected_when_pessimistic: u64,
     /// Mission time from a plan to its verdict, ms.
     pub validation_ms_median: Option<f64>,
     pub validation_ms_max: Option<u32>,
@@ -263,6 +265,7 @@ pub fn internal_sim(
             .zip(c.sim_outcomes)
             .map(|(n, k)| (n.to_string(), k))
             .collect(),
+        rejected_when_pessimistic: c.refused_when_pessimistic,
         validation_ms_median: crate::planner_figures::median(&e.validation_ms),
         validation_ms_max: e.validation_ms.iter().max().copied(),
         comparisons: e.prediction_rmse_m.len(),

@@ -93,6 +93,14 @@ pub struct SimulatorParams {
     /// returns past it, the strip runs on at the roof's height and holds
     /// the wheels (the garage's roof goal 0.15 m from the rim passed).
     pub overhang_depth_m: f64,
+    /// A plan that reaches its goal is driven a second time, pessimistic,
+    /// and passes only if that reaches the goal too: on the same ground
+    /// with its friction at most this (0: no second rollout) ...
+    pub pessimistic_friction: f64,
+    /// ... the rover started as it stands, pitched and rolled, and tipped
+    /// over this much under `tip_over_deg`, deg (the tilt the map gets
+    /// wrong).
+    pub pessimistic_tilt_margin_deg: f64,
 }
 
 impl Default for SimulatorParams {
@@ -135,6 +143,10 @@ impl Default for SimulatorParams {
             start_tilted_over_deg: 15.0,
             way_back_drop_m: 0.0,
             overhang_depth_m: 0.3,
+            // The lowest grip the rover's model knows (mud): the map
+            // cannot tell mud from rock.
+            pessimistic_friction: physics.friction_mud,
+            pessimistic_tilt_margin_deg: 3.0,
             physics,
         }
     }
@@ -184,6 +196,20 @@ impl SimulatorParams {
             0.0,
             10.0,
             "0..=10",
+        )?;
+        range(
+            "pessimistic_friction",
+            self.pessimistic_friction,
+            0.0,
+            2.0,
+            "0..=2",
+        )?;
+        range(
+            "pessimistic_tilt_margin_deg",
+            self.pessimistic_tilt_margin_deg,
+            0.0,
+            30.0,
+            "0..=30",
         )
     }
 
@@ -214,6 +240,18 @@ impl SimulatorParams {
             return Err(format!(
                 "simulator overhang_depth_m must be 0 or more, is {}",
                 self.overhang_depth_m
+            ));
+        }
+        if !(0.0..=2.0).contains(&self.pessimistic_friction) {
+            return Err(format!(
+                "simulator pessimistic_friction must be within 0..=2, is {}",
+                self.pessimistic_friction
+            ));
+        }
+        if !(0.0..self.tip_over_deg).contains(&self.pessimistic_tilt_margin_deg) {
+            return Err(format!(
+                "simulator pessimistic_tilt_margin_deg must be 0 or more and under tip_over_deg, is {}",
+                self.pessimistic_tilt_margin_deg
             ));
         }
         if !(0.0..=90.0).contains(&self.start_tilted_over_deg) {

@@ -3,7 +3,7 @@
 
 use speleo_control::safety::tilt_stop_deg;
 use speleo_control::{AccelLimiter, PlanFollower, MAX_WAYPOINTS, REVERSE_SPEED_SCALE};
-use speleo_physics::{Mesh, PhysicsRover};
+use speleo_physics::{Mesh, PhysicsParams, PhysicsRover};
 
 use crate::prediction::Prediction;
 use crate::ribbon;
@@ -112,6 +112,17 @@ enum Phase {
     Done,
 }
 
+/// Which of a validation's two rollouts is under way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Leg {
+    /// On the map as it reads, the rover put down as
+    /// [`SimulatorParams::start_tilted`] says.
+    Nominal,
+    /// On the same ground at [`SimulatorParams::pessimistic_friction`],
+    /// the rover started as it stands, with the tilt margin.
+    Pessimistic,
+}
+
 /// Work units of ~25-30 us at the median, from
 /// `benches/validation_phases.rs` on the short tube: 256 points integrated
 /// (~28 us), a 0.25 m tile meshed and added to the world (~10 us and
@@ -212,6 +223,20 @@ pub struct InternalSim {
     scratch: Vec<[f64; 3]>,
     verdict: Option<Verdict>,
     pub counters: SimCounters,
+    leg: Leg,
+    /// The plan and the start as given (the way back reverses the plan;
+    /// the nominal rollout may put the rover down level).
+    plan_given: heapless::Vec<[f64; 4], MAX_WAYPOINTS>,
+    start_given: Stance,
+    /// The nominal rollout's verdict, while the pessimistic one runs.
+    nominal: Option<Verdict>,
+    /// The rover's build on the pessimistic rollout's ground.
+    pessimistic_physics: PhysicsParams,
+    /// The teardown keeps the TSDF: the pessimistic rollout's world is
+    /// meshed again from the same scans.
+    keep_tsdf: bool,
+    /// The nominal rollout's tilt after its first step, deg.
+    start_tilt_deg: f64,
 }
 
 impl InternalSim {
@@ -242,6 +267,13 @@ impl InternalSim {
             scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
             verdict: None,
             counters: SimCounters::default(),
+            leg: Leg::Nominal,
+            plan_given: heapless::Vec::new(),
+            start_given: Stance::default(),
+            nominal: None,
+            pessimistic_physics: p.physics.clone(),
+            keep_tsdf: false,
+            start_tilt_deg: 0.0,
             p,
         })
     }
@@ -259,6 +291,12 @@ impl InternalSim {
                 break;
             }
         }
+        self.plan_given.clone_from(&self.plan);
+        self.start_given = start;
+        self.leg = Leg::Nominal;
+        self.nominal = None;
+        self.keep_tsdf = false;
+        self.start_tilt_deg = 0.0;
         let tilt_deg = start.up()[2].clamp(-1.0, 1.0).acos().to_degrees();
         self.start = if self.p.start_tilted || tilt_deg > self.p.start_tilted_over_deg {
             start
@@ -511,7 +549,11 @@ impl InternalSim {
             }
         }
         self.rover = None;
-        Phase::Clear
+        if core::mem::take(&mut self.keep_tsdf) {
+            Phase::Base
+        } else {
+            Phase::Clear
+        }
     }
 
     /// Keyframe `k - 1` integrated from point `from` (a unit's worth),
@@ -571,20 +613,25 @@ impl InternalSim {
     fn begin_ground(&mut self) -> usize {
         let [x, y, z, yaw] = self.start.xyz_yaw();
         let tilt = [self.start.pitch, self.start.roll];
-        let (ph, dt) = (&self.p.physics, self.p.dt_s);
+        let ph = match self.leg {
+            Leg::Nominal => &self.p.physics,
+            Leg::Pessimistic => &self.pessimistic_physics,
+        };
+        let dt = self.p.dt_s;
         // Dropped from a little higher than the estimate: legs started
         // inside a floor the TSDF puts a few centimetres higher than the
         // estimate would be thrown out of it.
         let ground = [x, y, z - self.p.base_height_m + DROP_M, yaw];
-        if let Some(mesh) = self.given_ground.take() {
-            match PhysicsRover::new_tilted(ph, &mesh, ground, tilt, dt) {
+        if let Some(mesh) = &self.given_ground {
+            let vertices = mesh.vertices.len();
+            match PhysicsRover::new_tilted(ph, mesh, ground, tilt, dt) {
                 Ok(r) => {
                     self.rover = Some(Box::new(r));
                     self.phase = Phase::Drive;
                 }
                 Err(_) => self.phase = self.finish(Outcome::NoGround),
             }
-            return mesh.vertices.len();
+            return vertices;
         }
         // On the floor the map has round the rover, where it saw one: the
         // estimate may sit under it or over it (see `ribbon::floor_around`).
@@ -675,26 +722,79 @@ impl InternalSim {
     }
 
     fn finish(&mut self, outcome: Outcome) -> Phase {
-        if let Some((_, plan)) = self.returning {
-            self.verdict = Some(if outcome == Outcome::Reached {
+        let verdict = if let Some(n) = self.nominal {
+            // The pessimistic rollout's outcome, with the nominal one's
+            // figures (its prediction is the one kept).
+            Verdict { outcome, ..n }
+        } else if let Some((_, plan)) = self.returning {
+            if outcome == Outcome::Reached {
                 plan
             } else {
                 Verdict {
                     outcome: Outcome::NoWayBack,
                     ..plan
                 }
-            });
-            return Phase::Done;
+            }
+        } else {
+            Verdict {
+                outcome,
+                drive_s: self
+                    .moving_since
+                    .map_or(0.0, |s| (self.step - s) as f64 * self.p.dt_s),
+                goal_error_m: self.goal_error(),
+            }
+        };
+        // A rover that starts as steep as the pessimistic tip limit
+        // allows (within the safety monitor's growth of it) has no margin
+        // left to keep and no safer choice than a way off the slope: the
+        // nominal rollout judges it alone.
+        let margin_left = self.p.tip_over_deg - self.p.pessimistic_tilt_margin_deg;
+        let pessimistic = self.p.pessimistic_friction > 0.0
+            && tilt_stop_deg(margin_left, self.start_tilt_deg) <= margin_left;
+        if verdict.success() && self.leg == Leg::Nominal && pessimistic {
+            self.verdict = None;
+            self.nominal = Some(verdict);
+            return self.begin_pessimistic();
         }
-        let goal_error_m = self.goal_error();
-        self.verdict = Some(Verdict {
-            outcome,
-            drive_s: self
-                .moving_since
-                .map_or(0.0, |s| (self.step - s) as f64 * self.p.dt_s),
-            goal_error_m,
-        });
+        self.verdict = Some(verdict);
         Phase::Done
+    }
+
+    /// The plan again, on the nominal world's scans re-meshed with the
+    /// ground's friction at [`SimulatorParams::pessimistic_friction`], the
+    /// rover started as it stands and judged against the tip limit less
+    /// [`SimulatorParams::pessimistic_tilt_margin_deg`].
+    fn begin_pessimistic(&mut self) -> Phase {
+        self.leg = Leg::Pessimistic;
+        self.pessimistic_physics = pessimistic_physics(&self.p, &self.start_given);
+        self.plan.clone_from(&self.plan_given);
+        self.start = self.start_given;
+        self.way_back = false;
+        self.returning = None;
+        self.moving_since = None;
+        self.step = 0;
+        self.tilt_limit_deg = self.tip_limit_deg();
+        self.tilted_start = false;
+        self.targets = [0.0; 4];
+        self.command = (0.0, 0.0);
+        self.limiter.halt();
+        self.keep_tsdf = true;
+        Phase::Teardown
+    }
+
+    /// Tilt past this is a tip-over, deg: the pessimistic rollout keeps
+    /// its margin.
+    fn tip_limit_deg(&self) -> f64 {
+        match self.leg {
+            Leg::Nominal => self.p.tip_over_deg,
+            Leg::Pessimistic => self.p.tip_over_deg - self.p.pessimistic_tilt_margin_deg,
+        }
+    }
+
+    /// Whether the verdict in is a refusal by the pessimistic rollout
+    /// after the nominal one passed.
+    pub fn refused_when_pessimistic(&self) -> bool {
+        self.leg == Leg::Pessimistic && self.verdict.is_some_and(|v| !v.success())
     }
 
     fn goal_error(&self) -> f64 {
@@ -709,6 +809,7 @@ impl InternalSim {
 
     /// One physics step; the follower every control period.
     fn drive(&mut self) -> Option<Verdict> {
+        let tip = self.tip_limit_deg();
         let Some(rover) = &mut self.rover else {
             return Some(Verdict {
                 outcome: Outcome::NoGround,
@@ -744,7 +845,7 @@ impl InternalSim {
                 self.moving_since = Some(self.step);
             }
         }
-        if let (Some(since), None) = (self.moving_since, self.returning) {
+        if let (Some(since), None, Leg::Nominal) = (self.moving_since, self.returning, self.leg) {
             let every = (SAMPLE_PERIOD_S / dt).round().max(1.0) as u64;
             if (self.step - since).is_multiple_of(every) {
                 self.prediction.push(s.position);
@@ -761,11 +862,14 @@ impl InternalSim {
         // tube's rover, stopped at 30.1 degrees on the muddy entrance, was
         // stranded there. Settling on a steep slope rocks the model by a
         // few degrees: the start's tilt is taken once it has settled.
-        if self.step == 1 && tilt_stop_deg(self.p.tip_over_deg, tilt) > self.p.tip_over_deg {
-            self.tilt_limit_deg = tilt_stop_deg(self.p.tip_over_deg, f64::INFINITY);
+        if self.step == 1 && self.leg == Leg::Nominal {
+            self.start_tilt_deg = tilt;
+        }
+        if self.step == 1 && tilt_stop_deg(tip, tilt) > tip {
+            self.tilt_limit_deg = tilt_stop_deg(tip, f64::INFINITY);
             self.tilted_start = true;
         } else if self.step == settle_steps && self.tilted_start {
-            self.tilt_limit_deg = tilt_stop_deg(self.p.tip_over_deg, tilt);
+            self.tilt_limit_deg = tilt_stop_deg(tip, tilt);
         }
         if tilt > self.tilt_limit_deg {
             return self.verdict_now(Outcome::TippedOver);
@@ -861,6 +965,22 @@ impl InternalSim {
     fn verdict_now(&mut self, outcome: Outcome) -> Option<Verdict> {
         self.phase = self.finish(outcome);
         self.verdict
+    }
+}
+
+/// The rover's build with no surface gripping more than the pessimistic
+/// rollout's friction, or than what holds the rover standing at `start`
+/// (on a slope of angle a, at least tan a: it stands there, it does not
+/// slide).
+fn pessimistic_physics(p: &SimulatorParams, start: &Stance) -> PhysicsParams {
+    let tilt = start.up()[2].clamp(-1.0, 1.0).acos();
+    let mu = p.pessimistic_friction.max(tilt.tan());
+    let ph = &p.physics;
+    PhysicsParams {
+        friction_rock: ph.friction_rock.min(mu),
+        friction_mud: ph.friction_mud.min(mu),
+        friction_concrete: ph.friction_concrete.min(mu),
+        ..ph.clone()
     }
 }
 

@@ -124,10 +124,12 @@ fn with_the_tilted_start_off_a_rover_tilted_past_the_threshold_still_starts_tilt
 }
 
 /// The verdict on a 3 m drive along the slope from where the rover stands
-/// on it, with the tilt limit `limit_deg`: the outcome, and when, s.
+/// on it, with the tilt limit `limit_deg`: the outcome, and when, s (the
+/// nominal rollout's rule alone; `tests/pessimistic.rs` has the other).
 fn along_the_slope(limit_deg: f64) -> (Outcome, u64) {
     let p = SimulatorParams {
         tip_over_deg: limit_deg,
+        pessimistic_friction: 0.0,
         ..SimulatorParams::default()
     };
     let mut sim = InternalSim::new(p).expect("sim");

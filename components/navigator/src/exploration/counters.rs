@@ -42,6 +42,9 @@ pub struct ExplorationCounters {
     pub validated: u64,
     pub rejected_by_sim: u64,
     pub sim_outcomes: [u64; 8],
+    /// Refusals by the pessimistic rollout of plans the nominal one
+    /// passed.
+    pub refused_when_pessimistic: u64,
     pub sim_physics_steps: u64,
     pub sim_triangles_max: u64,
     /// Refused plans whose first part, the part the simulated rover drove

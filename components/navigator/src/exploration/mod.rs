@@ -237,6 +237,9 @@ impl Exploration {
         if let Some(sim) = &self.sim {
             self.counters.sim_physics_steps = sim.counters.physics_steps;
             self.counters.sim_triangles_max = sim.counters.triangles_max;
+            if sim.refused_when_pessimistic() {
+                self.counters.refused_when_pessimistic += 1;
+            }
         }
         let k = match outcome {
             Outcome::Reached => {

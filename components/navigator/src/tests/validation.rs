@@ -25,8 +25,14 @@ fn ledge_mission_from(
         weight_target: 1.0,
         ..Default::default()
     };
-    let sim =
-        speleo_simulator::InternalSim::new(Default::default()).unwrap_or_else(|e| panic!("{e}"));
+    // The nominal rollout alone: with the pessimistic one's grip, the
+    // tight turn at the ledge's foot that the lower goal's plan makes
+    // slides into the ledge and is refused too.
+    let sim = speleo_simulator::InternalSim::new(speleo_simulator::SimulatorParams {
+        pessimistic_friction: 0.0,
+        ..Default::default()
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
     let ex = Exploration::new(
         e.explorer_params(),
         e.candidate_params(),
