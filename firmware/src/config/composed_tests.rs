@@ -101,6 +101,8 @@ fn the_composed_sections_write_the_keys_they_always_had() {
         "start_tilted_over_deg",
         "way_back_drop_m",
         "overhang_depth_m",
+        "pessimistic_friction",
+        "pessimistic_tilt_margin_deg",
     ];
     assert_eq!(keys_of("simulator"), sorted(&simulator));
 }
