@@ -145,7 +145,7 @@ impl Default for SimulatorParams {
             overhang_depth_m: 0.3,
             // The lowest grip the rover's model knows (mud): the map
             // cannot tell mud from rock.
-            pessimistic_friction: physics.friction_mud,
+            pessimistic_friction: 0.0,
             pessimistic_tilt_margin_deg: 3.0,
             physics,
         }
