@@ -101,6 +101,11 @@ pub struct SimulatorParams {
     /// over this much under `tip_over_deg`, deg (the tilt the map gets
     /// wrong).
     pub pessimistic_tilt_margin_deg: f64,
+    /// The pessimistic rollout is driven only for plans whose nominal
+    /// rollout climbed more than this above the start, m: where the
+    /// wheels hold the rover against the slope, so a grip the scans
+    /// cannot read decides whether it comes back down (0: every plan).
+    pub pessimistic_climb_m: f64,
 }
 
 impl Default for SimulatorParams {
@@ -145,8 +150,9 @@ impl Default for SimulatorParams {
             overhang_depth_m: 0.3,
             // The lowest grip the rover's model knows (mud): the map
             // cannot tell mud from rock.
-            pessimistic_friction: 0.0,
-            pessimistic_tilt_margin_deg: 3.0,
+            pessimistic_friction: 0.35,
+            pessimistic_tilt_margin_deg: 0.0,
+            pessimistic_climb_m: 0.5,
             physics,
         }
     }
@@ -210,6 +216,13 @@ impl SimulatorParams {
             0.0,
             30.0,
             "0..=30",
+        )?;
+        range(
+            "pessimistic_climb_m",
+            self.pessimistic_climb_m,
+            0.0,
+            100.0,
+            "0..=100",
         )
     }
 
@@ -252,6 +265,12 @@ impl SimulatorParams {
             return Err(format!(
                 "simulator pessimistic_tilt_margin_deg must be 0 or more and under tip_over_deg, is {}",
                 self.pessimistic_tilt_margin_deg
+            ));
+        }
+        if !(0.0..=100.0).contains(&self.pessimistic_climb_m) {
+            return Err(format!(
+                "simulator pessimistic_climb_m must be within 0..=100, is {}",
+                self.pessimistic_climb_m
             ));
         }
         if !(0.0..=90.0).contains(&self.start_tilted_over_deg) {

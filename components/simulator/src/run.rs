@@ -750,7 +750,8 @@ impl InternalSim {
         // nominal rollout judges it alone.
         let margin_left = self.p.tip_over_deg - self.p.pessimistic_tilt_margin_deg;
         let pessimistic = self.p.pessimistic_friction > 0.0
-            && tilt_stop_deg(margin_left, self.start_tilt_deg) <= margin_left;
+            && tilt_stop_deg(margin_left, self.start_tilt_deg) <= margin_left
+            && self.climbed_m() > self.p.pessimistic_climb_m;
         if verdict.success() && self.leg == Leg::Nominal && pessimistic {
             self.verdict = None;
             self.nominal = Some(verdict);
@@ -927,6 +928,15 @@ impl InternalSim {
             && r.ground_under_hubs(self.p.physics.wheel_radius_m + d)
                 .iter()
                 .any(Option::is_none)
+    }
+
+    /// How far the rover rose above its start on the way predicted, m.
+    fn climbed_m(&self) -> f64 {
+        let points = self.prediction();
+        let Some(first) = points.first() else {
+            return 0.0;
+        };
+        points.iter().map(|p| p[2] - first[2]).fold(0.0, f64::max)
     }
 
     /// Whether the goal just reached calls for the way back: asked for,
