@@ -34,4 +34,11 @@ impl CloudSource for MapClouds<'_> {
         }
         from + n < total
     }
+
+    fn intensities(&self, k: usize, from: usize, n: usize, out: &mut Vec<u8>) {
+        out.clear();
+        if self.clouds.pose(k).is_some() {
+            out.extend_from_slice(self.clouds.intensity_part(k, from, n));
+        }
+    }
 }

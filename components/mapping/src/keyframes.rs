@@ -6,8 +6,8 @@
 //! pose-graph correction re-projects every point.
 //!
 //! Points are kept in the base frame as 16-bit integers of 2 mm (the
-//! HDL-32E's own distance unit): 6 bytes a point, +-65 m. All storage is
-//! taken at start-up.
+//! HDL-32E's own distance unit), and the intensity of each return: 7
+//! bytes a point, +-65 m. All storage is taken at start-up.
 
 use speleo_slam::lie::Pose;
 
@@ -19,6 +19,8 @@ pub const MAX_COORD_M: f64 = i16::MAX as f64 * LSB_M;
 pub struct KeyframeClouds {
     per_keyframe: usize,
     points: Vec<[i16; 3]>,
+    /// Each point's return intensity (0: none measured).
+    intensities: Vec<u8>,
     counts: Vec<u32>,
     /// Map <- base of each keyframe, as last optimised.
     poses: Vec<Pose>,
@@ -40,6 +42,7 @@ impl KeyframeClouds {
         KeyframeClouds {
             per_keyframe,
             points: vec![[0; 3]; keyframes * per_keyframe],
+            intensities: vec![0; keyframes * per_keyframe],
             counts: vec![0; keyframes],
             poses: Vec::with_capacity(keyframes),
             len: 0,
@@ -68,7 +71,7 @@ impl KeyframeClouds {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.points.len() * 6 + self.counts.len() * 4 + self.poses.capacity() * 96
+        self.points.len() * 7 + self.counts.len() * 4 + self.poses.capacity() * 96
     }
 
     /// Start staging the next keyframe's cloud (any earlier staging is
@@ -82,15 +85,24 @@ impl KeyframeClouds {
         true
     }
 
-    /// Add a point (base frame, m) to the staged cloud.
+    /// Add a point (base frame, m) to the staged cloud, its intensity
+    /// not measured.
     pub fn push(&mut self, p: [f64; 3]) {
+        self.push_return(p, 0);
+    }
+
+    /// Add a point (base frame, m) and its return's intensity to the
+    /// staged cloud.
+    pub fn push_return(&mut self, p: [f64; 3], intensity: u8) {
         let fits = p.iter().all(|c| c.abs() <= MAX_COORD_M);
         if self.len >= self.capacity() || self.staged >= self.per_keyframe || !fits {
             self.dropped += 1;
             return;
         }
         let q = p.map(|c| (c / LSB_M).round() as i16);
-        self.points[self.len * self.per_keyframe + self.staged] = q;
+        let i = self.len * self.per_keyframe + self.staged;
+        self.points[i] = q;
+        self.intensities[i] = intensity;
         self.staged += 1;
     }
 
@@ -129,6 +141,15 @@ impl KeyframeClouds {
         (part, total)
     }
 
+    /// The intensities of the points [`cloud_part`](Self::cloud_part)
+    /// gives for the same arguments.
+    pub fn intensity_part(&self, k: usize, from: usize, n: usize) -> &[u8] {
+        let total = self.counts.get(k).copied().unwrap_or(0) as usize;
+        let start = k.min(self.capacity()) * self.per_keyframe;
+        let (a, b) = (from.min(total), from.saturating_add(n).min(total));
+        &self.intensities[start + a..start + b]
+    }
+
     /// Replace the poses (map <- base, keyframe order); a pose for a
     /// keyframe whose cloud is missing is kept for when it arrives.
     pub fn set_poses(&mut self, poses: impl IntoIterator<Item = Pose>) {
@@ -162,8 +183,8 @@ impl speleo_slam::staging::MapSink for KeyframeClouds {
         KeyframeClouds::begin(self)
     }
 
-    fn push(&mut self, p: [f64; 3]) {
-        KeyframeClouds::push(self, p)
+    fn push(&mut self, p: [f64; 3], intensity: u8) {
+        KeyframeClouds::push_return(self, p, intensity)
     }
 
     fn commit(&mut self) {
@@ -175,6 +196,22 @@ impl speleo_slam::staging::MapSink for KeyframeClouds {
 mod tests {
     use super::*;
     use nalgebra::{Matrix3, Vector3};
+
+    #[test]
+    fn each_point_keeps_its_returns_intensity() {
+        let mut s = KeyframeClouds::new(2, 4);
+        assert!(s.begin());
+        s.push_return([1.0, 0.0, 0.0], 25);
+        s.push([2.0, 0.0, 0.0]);
+        s.push_return([3.0, 0.0, 0.0], 60);
+        s.commit();
+        assert_eq!(s.intensity_part(0, 0, 10), &[25, 0, 60]);
+        assert_eq!(s.intensity_part(0, 1, 1), &[0]);
+        let (part, total) = s.cloud_part(0, 2, 5);
+        assert_eq!((part.count(), total), (1, 3));
+        assert_eq!(s.intensity_part(0, 2, 5), &[60]);
+        assert!(s.intensity_part(1, 0, 5).is_empty(), "no such keyframe yet");
+    }
 
     #[test]
     fn clouds_round_trip_at_two_millimetres_and_never_grow() {

@@ -39,6 +39,10 @@ impl CloudSource for Clouds<'_> {
     fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
         self.0.points(k, from, n, out)
     }
+
+    fn intensities(&self, k: usize, from: usize, n: usize, out: &mut Vec<u8>) {
+        self.0.intensities(k, from, n, out);
+    }
 }
 
 /// Plans published in one step at most (a plan, then the same marked to

@@ -19,7 +19,9 @@ use std::io::{self, Read, Write};
 use crate::{CloudSource, Outcome, Stance, Verdict};
 
 const MAGIC: &[u8; 8] = b"SPLVCASE";
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
+/// The first version with the returns' intensities.
+const INTENSITY_VERSION: u32 = 4;
 /// Files of this version are still read (their start is level).
 const LEVEL_START_VERSION: u32 = 1;
 /// The first version with the start's pitch and roll.
@@ -35,6 +37,8 @@ const MAX_POINTS: u32 = 1 << 24;
 pub struct RecordedKeyframe {
     pub origin: Option<[f64; 3]>,
     pub points: Vec<[f64; 3]>,
+    /// Each point's return intensity; empty where none were measured.
+    pub intensities: Vec<u8>,
 }
 
 /// One validation's inputs and the verdict the mission got from them.
@@ -174,6 +178,13 @@ impl ValidationCase {
             for p in &k.points {
                 write_f64s(w, p)?;
             }
+            let intensities = if k.intensities.len() == k.points.len() {
+                &k.intensities[..]
+            } else {
+                &[]
+            };
+            w.write_all(&(intensities.len() as u32).to_le_bytes())?;
+            w.write_all(intensities)?;
         }
         Ok(())
     }
@@ -222,9 +233,23 @@ impl ValidationCase {
             let points = (0..m)
                 .map(|_| read_f64s::<3>(r))
                 .collect::<Result<Vec<_>, _>>()?;
+            let mut intensities = Vec::new();
+            if version >= INTENSITY_VERSION {
+                let n = read_count(r, "intensities in a keyframe", m)?;
+                if n != 0 && n != m {
+                    return Err(CaseError::Count {
+                        what: "intensities in a keyframe (none or one a point)",
+                        count: n,
+                        max: m,
+                    });
+                }
+                intensities = vec![0; n as usize];
+                r.read_exact(&mut intensities)?;
+            }
             keyframes.push(RecordedKeyframe {
                 origin: (has[0] != 0).then_some(origin),
                 points,
+                intensities,
             });
         }
         Ok(ValidationCase {
@@ -286,6 +311,14 @@ impl CloudSource for ValidationCase {
         out.extend_from_slice(&kf.points[from.min(to)..to]);
         from.saturating_add(n) < kf.points.len()
     }
+    fn intensities(&self, k: usize, from: usize, n: usize, out: &mut Vec<u8>) {
+        out.clear();
+        let Some(kf) = self.keyframes.get(k) else {
+            return;
+        };
+        let to = from.saturating_add(n).min(kf.intensities.len());
+        out.extend_from_slice(&kf.intensities[from.min(to)..to]);
+    }
 }
 
 /// Another source's clouds, each answer also written into `case`: the
@@ -319,14 +352,31 @@ impl<C: CloudSource> CloudSource for RecordingClouds<'_, C> {
     }
     fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool {
         let more = self.inner.points(k, from, n, out);
+        let mut intensities = Vec::new();
+        self.inner.intensities(k, from, n, &mut intensities);
         if let Some(kf) = self.case.borrow_mut().keyframes.get_mut(k) {
             if from == 0 {
                 kf.points.clear();
+                kf.intensities.clear();
             }
             let (keep, origin) = (self.keep, kf.origin);
-            kf.points
-                .extend(out.iter().filter(|p| keep.reads(origin, p)));
+            let with_intensity =
+                intensities.len() == out.len() && kf.intensities.len() == kf.points.len();
+            for (i, p) in out.iter().enumerate() {
+                if keep.reads(origin, p) {
+                    kf.points.push(*p);
+                    if with_intensity {
+                        kf.intensities.push(intensities[i]);
+                    }
+                }
+            }
+            if !with_intensity {
+                kf.intensities.clear();
+            }
         }
         more
+    }
+    fn intensities(&self, k: usize, from: usize, n: usize, out: &mut Vec<u8>) {
+        self.inner.intensities(k, from, n, out);
     }
 }

@@ -106,6 +106,14 @@ pub struct SimulatorParams {
     /// wheels hold the rover against the slope, so a grip the scans
     /// cannot read decides whether it comes back down (0: every plan).
     pub pessimistic_climb_m: f64,
+    /// Ground whose brightest return reads under this intensity is driven
+    /// at mud's grip, the rest at rock's (0: rock everywhere). A surface
+    /// returns at most its reflectance, at normal incidence, and less the
+    /// more grazing the ray: a dark surface never reads bright, and a
+    /// bright one reads dark only where every ray grazed it (flat ground
+    /// seen from afar, where grip decides little), while a slope facing
+    /// the rover, where grip decides a climb, is seen nearer its normal.
+    pub low_grip_intensity: f64,
 }
 
 impl Default for SimulatorParams {
@@ -150,9 +158,13 @@ impl Default for SimulatorParams {
             overhang_depth_m: 0.3,
             // The lowest grip the rover's model knows (mud): the map
             // cannot tell mud from rock.
-            pessimistic_friction: 0.35,
+            pessimistic_friction: 0.0,
             pessimistic_tilt_margin_deg: 0.0,
             pessimistic_climb_m: 0.5,
+            // Mud's returns read 25 at most (its reflectance, at normal
+            // incidence), rock's 60 there: darker than 26, the ground may
+            // be mud.
+            low_grip_intensity: 26.0,
             physics,
         }
     }
@@ -218,6 +230,13 @@ impl SimulatorParams {
             "0..=30",
         )?;
         range(
+            "low_grip_intensity",
+            self.low_grip_intensity,
+            0.0,
+            255.0,
+            "0..=255",
+        )?;
+        range(
             "pessimistic_climb_m",
             self.pessimistic_climb_m,
             0.0,
@@ -265,6 +284,12 @@ impl SimulatorParams {
             return Err(format!(
                 "simulator pessimistic_tilt_margin_deg must be 0 or more and under tip_over_deg, is {}",
                 self.pessimistic_tilt_margin_deg
+            ));
+        }
+        if !(0.0..=255.0).contains(&self.low_grip_intensity) {
+            return Err(format!(
+                "simulator low_grip_intensity must be within 0..=255, is {}",
+                self.low_grip_intensity
             ));
         }
         if !(0.0..=100.0).contains(&self.pessimistic_climb_m) {

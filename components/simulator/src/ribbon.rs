@@ -460,7 +460,7 @@ mod tests {
                     }
                 }
             }
-            t.integrate([ox, 0.0, z(ox, 0.0) + 1.0], &mut pts);
+            t.integrate([ox, 0.0, z(ox, 0.0) + 1.0], &mut pts, &mut Vec::new());
         }
         t
     }
@@ -516,7 +516,7 @@ mod tests {
                 pts.push([1.0, -2.0 + 0.05 * j as f64, 0.5 + 0.05 * k as f64]);
             }
         }
-        t.integrate([-1.0, 0.0, 0.3], &mut pts);
+        t.integrate([-1.0, 0.0, 0.3], &mut pts, &mut Vec::new());
         let path = [[2.0, 0.0, 0.75], [4.0, 0.0, 0.75]];
         let m = strip(&t, &path, 0.4, 0.0, None);
         assert!(!m.vertices.is_empty());
@@ -548,7 +548,7 @@ mod tests {
                 }
             }
         }
-        t.integrate([0.0, 0.0, 1.0], &mut pts);
+        t.integrate([0.0, 0.0, 1.0], &mut pts, &mut Vec::new());
         t
     }
 
@@ -605,7 +605,7 @@ mod tests {
                 }
             }
         }
-        t.integrate([0.0, 0.0, 1.0], &mut pts);
+        t.integrate([0.0, 0.0, 1.0], &mut pts, &mut Vec::new());
         assert!(
             t.seen_through(2.5, 0.0, z(1.6)),
             "the ramp passes the plane"

@@ -18,6 +18,13 @@ pub trait CloudSource {
     /// Up to `n` of keyframe `k`'s points (map frame) from point `from`
     /// into `out` (cleared first); false when there are none left.
     fn points(&self, k: usize, from: usize, n: usize, out: &mut Vec<[f64; 3]>) -> bool;
+    /// The intensities of the returns [`points`](Self::points) gives for
+    /// the same arguments, into `out` (cleared first); left empty where
+    /// none were measured.
+    fn intensities(&self, k: usize, from: usize, n: usize, out: &mut Vec<u8>) {
+        let _ = (k, from, n);
+        out.clear();
+    }
 }
 
 /// No clouds: for the steps that do not read them.
@@ -221,6 +228,7 @@ pub struct InternalSim {
     tilted_start: bool,
     prediction: Prediction,
     scratch: Vec<[f64; 3]>,
+    scratch_intensities: Vec<u8>,
     verdict: Option<Verdict>,
     pub counters: SimCounters,
     leg: Leg,
@@ -265,6 +273,7 @@ impl InternalSim {
             tilted_start: false,
             prediction: Prediction::with_capacity(),
             scratch: Vec::with_capacity(POINTS_PER_UNIT * 64),
+            scratch_intensities: Vec::with_capacity(POINTS_PER_UNIT * 64),
             verdict: None,
             counters: SimCounters::default(),
             leg: Leg::Nominal,
@@ -592,7 +601,10 @@ impl InternalSim {
             return next;
         }
         let more = clouds.points(k - 1, from, POINTS_PER_UNIT, &mut self.scratch);
-        self.counters.points_integrated += self.terrain.integrate(origin, &mut self.scratch);
+        clouds.intensities(k - 1, from, POINTS_PER_UNIT, &mut self.scratch_intensities);
+        self.counters.points_integrated +=
+            self.terrain
+                .integrate(origin, &mut self.scratch, &mut self.scratch_intensities);
         if more {
             Phase::Integrate {
                 k,

@@ -84,6 +84,12 @@ pub(crate) struct Terrain {
     through_nx: usize,
     through_ny: usize,
     through_z: f64,
+    /// The brightest return integrated into each TSDF voxel (by its slot;
+    /// 0: no intensity measured).
+    brightest: Vec<u8>,
+    /// Ground whose brightest return reads under this is meshed as mud
+    /// (see [`SimulatorParams::low_grip_intensity`]).
+    low_grip_intensity: f64,
 }
 
 impl Terrain {
@@ -96,7 +102,14 @@ impl Terrain {
             min_weight: 0.0,
         })
         .map_err(|e| e.to_string())?;
+        let slots = if p.low_grip_intensity > 0.0 {
+            tsdf.slots()
+        } else {
+            0
+        };
         Ok(Terrain {
+            brightest: vec![0; slots],
+            low_grip_intensity: p.low_grip_intensity,
             tsdf,
             buffers: MeshBuffers::with_capacity(p.max_blocks, TILE_SLABS, TILE_TRIANGLES),
             chunk: Mesh {
@@ -120,6 +133,8 @@ impl Terrain {
     /// A new, empty world over the box `lo..hi`; rays down through
     /// `through_z` are counted (see [`seen_through`](Self::seen_through)).
     pub fn begin(&mut self, lo: [f64; 3], hi: [f64; 3], through_z: f64) {
+        let used = self.tsdf.slots_used().min(self.brightest.len());
+        self.brightest[..used].fill(0);
         self.tsdf.clear();
         self.lo = lo;
         self.hi = hi;
@@ -194,12 +209,55 @@ impl Terrain {
     }
 
     /// Integrate the points of `points` inside the box (with a voxel's
-    /// margin) seen from `origin`; the number integrated.
-    pub fn integrate(&mut self, origin: [f64; 3], points: &mut Vec<[f64; 3]>) -> u64 {
+    /// margin) seen from `origin`, with their returns' `intensities` when
+    /// these are as many; the number integrated.
+    pub fn integrate(
+        &mut self,
+        origin: [f64; 3],
+        points: &mut Vec<[f64; 3]>,
+        intensities: &mut Vec<u8>,
+    ) -> u64 {
         self.count_through(origin, points);
         let (lo, hi) = self.integrated_box();
-        points.retain(|p| (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]));
-        self.tsdf.integrate(origin, points).integrated
+        let with_intensity = intensities.len() == points.len() && !self.brightest.is_empty();
+        let mut kept = 0;
+        for i in 0..points.len() {
+            let p = points[i];
+            if (0..3).all(|k| p[k] >= lo[k] && p[k] <= hi[k]) {
+                points[kept] = p;
+                if with_intensity {
+                    intensities[kept] = intensities[i];
+                }
+                kept += 1;
+            }
+        }
+        points.truncate(kept);
+        let integrated = self.tsdf.integrate(origin, points).integrated;
+        if with_intensity {
+            for (p, &i) in points.iter().zip(intensities.iter()) {
+                if let Some(s) = self.tsdf.voxel_slot(self.tsdf.voxel_of(*p)) {
+                    self.brightest[s] = self.brightest[s].max(i);
+                }
+            }
+        }
+        integrated
+    }
+
+    /// The brightest return within a voxel of the one holding `p` (0:
+    /// none measured).
+    fn brightest_near(&self, p: [f64; 3]) -> u8 {
+        let [x, y, z] = self.tsdf.voxel_of(p);
+        let mut most = 0;
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    if let Some(s) = self.tsdf.voxel_slot([x + dx, y + dy, z + dz]) {
+                        most = most.max(self.brightest[s]);
+                    }
+                }
+            }
+        }
+        most
     }
 
     /// The box (with a voxel's margin) whose points are integrated.
@@ -275,7 +333,8 @@ impl Terrain {
         (lo, hi)
     }
 
-    /// Mesh tile `i` into `chunk` (rock: the simulator knows no better).
+    /// Mesh tile `i` into `chunk`: rock, or mud where the ground's
+    /// brightest return reads under [`SimulatorParams::low_grip_intensity`].
     pub fn mesh_tile(&mut self, i: usize) {
         let (a, b) = self.tile_bounds(i);
         let lo = [a[0], a[1], self.lo[2]];
@@ -287,14 +346,26 @@ impl Terrain {
         self.chunk.materials.clear();
         self.chunk.vertices.extend_from_slice(&m.vertices);
         self.chunk.triangles.extend_from_slice(&m.triangles);
-        self.chunk
-            .materials
-            .extend(std::iter::repeat_n(Material::Rock, m.triangles.len()));
+        if self.brightest.is_empty() {
+            self.chunk
+                .materials
+                .extend(std::iter::repeat_n(Material::Rock, m.triangles.len()));
+        } else {
+            for t in &m.triangles {
+                let c = t.map(|v| m.vertices[v as usize]);
+                let centre = [0, 1, 2].map(|k| f64::from(c[0][k] + c[1][k] + c[2][k]) / 3.0);
+                let b = self.brightest_near(centre);
+                let dark = b > 0 && f64::from(b) < self.low_grip_intensity;
+                self.chunk
+                    .materials
+                    .push(if dark { Material::Mud } else { Material::Rock });
+            }
+        }
         self.triangles += m.triangles.len();
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.tsdf.stats().memory_bytes + self.buffers.memory_bytes()
+        self.tsdf.stats().memory_bytes + self.buffers.memory_bytes() + self.brightest.len()
     }
 }
 

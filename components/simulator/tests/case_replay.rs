@@ -58,6 +58,11 @@ impl CloudSource for Ledge {
         out.extend_from_slice(&self.points[from.min(to)..to]);
         to < self.points.len()
     }
+    fn intensities(&self, _k: usize, from: usize, n: usize, out: &mut Vec<u8>) {
+        out.clear();
+        let to = (from + n).min(self.points.len());
+        out.extend((from.min(to)..to).map(|i| (i % 200) as u8 + 1));
+    }
 }
 
 fn plan() -> Vec<[f64; 4]> {
@@ -132,6 +137,14 @@ fn a_recorded_validation_replays_to_the_same_verdict_and_prediction() {
         case.keyframes[2].points.is_empty(),
         "the keyframe 40 m off is not read, only its origin"
     );
+    for k in &case.keyframes {
+        assert_eq!(
+            k.intensities.len(),
+            k.points.len(),
+            "an intensity a point kept"
+        );
+    }
+    assert!(case.keyframes[0].intensities.iter().any(|&i| i > 1));
     let read = 2 * Ledge::new().points.len();
     assert!(
         case.points() > read / 2 && case.points() < read,
@@ -173,10 +186,18 @@ fn a_damaged_case_is_refused_with_its_reason() {
     assert!(matches!(o, CaseError::Outcome(77)), "{o}");
 }
 
+/// The case's bytes with no keyframes: the same in every version.
+fn without_keyframes(bytes: &[u8]) -> Vec<u8> {
+    let at = 73 + plan().len() * 32 + 1 + 16;
+    let mut out = bytes[..at].to_vec();
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out
+}
+
 #[test]
 fn a_case_of_the_first_version_is_read_with_a_level_start() {
     // Version 1 had no pitch and roll after x, y, z, yaw.
-    let (_, bytes) = recorded();
+    let bytes = without_keyframes(&recorded().1);
     let mut old = bytes[..52].to_vec();
     old[8..12].copy_from_slice(&1u32.to_le_bytes());
     old.extend_from_slice(&bytes[69..]);
@@ -200,6 +221,7 @@ fn a_case_keeps_whether_the_way_back_was_driven_and_one_of_the_second_version_ha
         case
     );
     // Version 2: no way-back byte after the start.
+    let again = without_keyframes(&again);
     let mut v2 = again[..68].to_vec();
     v2[8..12].copy_from_slice(&2u32.to_le_bytes());
     v2.extend_from_slice(&again[69..]);
@@ -207,4 +229,30 @@ fn a_case_keeps_whether_the_way_back_was_driven_and_one_of_the_second_version_ha
     assert_eq!(old.start, case.start);
     assert!(!old.way_back);
     assert_eq!(old.plan, case.plan);
+}
+
+#[test]
+fn a_case_of_the_third_version_is_read_without_intensities() {
+    let (_, bytes) = recorded();
+    let mut case = ValidationCase::read(&mut bytes.as_slice()).expect("read");
+    case.keyframes.truncate(1);
+    case.keyframes[0].points.truncate(2);
+    case.keyframes[0].intensities.clear();
+    let mut v3 = Vec::new();
+    case.write(&mut v3).expect("write");
+    // Version 3 had no intensity count after a keyframe's points.
+    v3.truncate(v3.len() - 4);
+    v3[8..12].copy_from_slice(&3u32.to_le_bytes());
+    assert_eq!(
+        ValidationCase::read(&mut v3.as_slice()).expect("a version 3 case"),
+        case
+    );
+    // Intensities neither none nor one a point are refused.
+    case.keyframes[0].intensities = vec![7, 7];
+    let mut odd = Vec::new();
+    case.write(&mut odd).expect("write");
+    let count = odd.len() - 2 - 4;
+    odd[count..count + 4].copy_from_slice(&1u32.to_le_bytes());
+    let e = ValidationCase::read(&mut odd.as_slice()).expect_err("refused");
+    assert!(matches!(e, CaseError::Count { .. }), "{e}");
 }

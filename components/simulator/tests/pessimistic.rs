@@ -66,7 +66,15 @@ fn slope(deg: f64, across: bool) -> Mesh {
 
 /// Straight along +x from `x0` to `x1`, on `ground`, starting as the
 /// ground tilts the rover there.
-fn drive(p: SimulatorParams, mesh: Mesh, x0: f64, x1: f64, ground: impl Fn(f64) -> f64, pitch: f64, roll: f64) -> Verdict {
+fn drive(
+    p: SimulatorParams,
+    mesh: Mesh,
+    x0: f64,
+    x1: f64,
+    ground: impl Fn(f64) -> f64,
+    pitch: f64,
+    roll: f64,
+) -> Verdict {
     let start = Stance {
         position: [x0, 0.0, ground(x0) + p.base_height_m],
         yaw: 0.0,
@@ -83,7 +91,11 @@ fn drive(p: SimulatorParams, mesh: Mesh, x0: f64, x1: f64, ground: impl Fn(f64) 
     let mut sim = InternalSim::new(p).expect("sim");
     sim.begin_on(start, plan, mesh);
     let v = run_to_verdict(&mut sim);
-    assert_eq!(sim.refused_when_pessimistic(), v.outcome != Outcome::Reached && sim.params().pessimistic_friction > 0.0, "{v:?}");
+    assert_eq!(
+        sim.refused_when_pessimistic(),
+        v.outcome != Outcome::Reached && sim.params().pessimistic_friction > 0.0,
+        "{v:?}"
+    );
     v
 }
 
@@ -99,7 +111,15 @@ fn a_climb_the_rover_makes_on_rock_but_not_in_mud_is_refused() {
     };
     let up = drive(nominal, slope(22.0, false), -1.5, 3.0, ground, 0.0, 0.0);
     assert_eq!(up.outcome, Outcome::Reached, "{up:?}");
-    let both = drive(SimulatorParams::default(), slope(22.0, false), -1.5, 3.0, ground, 0.0, 0.0);
+    let both = drive(
+        SimulatorParams::default(),
+        slope(22.0, false),
+        -1.5,
+        3.0,
+        ground,
+        0.0,
+        0.0,
+    );
     assert_ne!(both.outcome, Outcome::Reached, "{both:?}");
 }
 
@@ -121,4 +141,3 @@ fn a_traverse_within_the_tip_limit_but_not_its_margin_is_refused() {
     let margin = drive(p(14.0), slope(20.0, true), -4.0, 7.0, ground, 0.0, 0.0);
     assert_eq!(margin.outcome, Outcome::TippedOver, "{margin:?}");
 }
-

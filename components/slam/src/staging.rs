@@ -21,8 +21,8 @@ const MIN_RANGE_M: f32 = 0.6;
 pub trait MapSink {
     /// A keyframe's cloud begins; false when there is no room.
     fn begin(&mut self) -> bool;
-    /// A point of it, base frame, m.
-    fn push(&mut self, p: [f64; 3]);
+    /// A point of it, base frame, m, and the intensity of its return.
+    fn push(&mut self, p: [f64; 3], intensity: u8);
     /// The cloud is complete.
     fn commit(&mut self);
 }
@@ -41,6 +41,8 @@ pub struct Stager {
     times: Vec<f32>,
     /// Range of each staged point from the sensor.
     ranges: Vec<f32>,
+    /// Intensity of each staged point's return.
+    intensities: Vec<u8>,
     /// ...and, a part per unit, in the base frame at the first firing.
     points: Vec<[f64; 3]>,
     /// When and where the staged revolution began.
@@ -68,6 +70,7 @@ impl Stager {
             raw: Vec::with_capacity(max_cloud_points),
             times: Vec::with_capacity(max_cloud_points),
             ranges: Vec::with_capacity(max_cloud_points),
+            intensities: Vec::with_capacity(max_cloud_points),
             points: Vec::with_capacity(max_cloud_points),
             staged: None,
             map_range_m: None,
@@ -127,6 +130,7 @@ impl Stager {
         self.raw.clear();
         self.times.clear();
         self.ranges.clear();
+        self.intensities.clear();
         self.points.clear();
         let slam_range = slam.params().max_range_m as f32;
         let range = self.map_range_m.map_or(slam_range, |m| m.max(slam_range));
@@ -145,6 +149,7 @@ impl Stager {
             self.raw.push([p.x, p.y, p.z]);
             self.times.push(p.time);
             self.ranges.push(p.distance);
+            self.intensities.push(p.intensity);
         }
         if self.map_range_m.is_some() {
             sink.begin();
@@ -188,14 +193,17 @@ impl Stager {
             // Even thinning: the j-th point in range is kept when it moves
             // floor(j * kept / in_range) on.
             let (n, keep) = (self.staged_in_map_range, self.map_points);
-            for (p, &r) in self.points[from..to].iter().zip(&self.ranges[from..to]) {
+            let returns = self.ranges[from..to]
+                .iter()
+                .zip(&self.intensities[from..to]);
+            for (p, (&r, &i)) in self.points[from..to].iter().zip(returns) {
                 if r > m {
                     continue;
                 }
                 let j = self.map_seen;
                 self.map_seen += 1;
                 if n <= keep || (j + 1) * keep / n > j * keep / n {
-                    sink.push(*p);
+                    sink.push(*p, i);
                 }
             }
         }

@@ -1,6 +1,8 @@
 //! The volume: parameters, integration along rays, statistics.
 
-use super::blocks::{block_of, local_index, BlockStore, Voxel, BLOCK_RANGE, BLOCK_SIDE};
+use super::blocks::{
+    block_of, local_index, BlockStore, Voxel, BLOCK_RANGE, BLOCK_SIDE, BLOCK_VOXELS,
+};
 use super::dda::VoxelRay;
 use crate::{floor_i32, ParamsError};
 
@@ -326,6 +328,25 @@ impl TsdfVolume {
     pub fn voxel(&self, v: [i32; 3]) -> Option<Voxel> {
         let n = self.store.get(block_of(v))?;
         Some(self.store.block(n)[local_index(v)])
+    }
+
+    /// Where voxel `v` sits in the pool, if its block is allocated: an
+    /// index below [`slots`](Self::slots), stable until
+    /// [`clear`](Self::clear), for values kept beside the voxels.
+    pub fn voxel_slot(&self, v: [i32; 3]) -> Option<usize> {
+        let n = self.store.get(block_of(v))?;
+        Some(self.store.voxel_slot(n, local_index(v)))
+    }
+
+    /// Voxel slots in the pool (allocated or not).
+    pub fn slots(&self) -> usize {
+        self.store.max_blocks() * BLOCK_VOXELS
+    }
+
+    /// Slots of the blocks allocated since the last clear: every
+    /// [`voxel_slot`](Self::voxel_slot) is below it.
+    pub fn slots_used(&self) -> usize {
+        self.store.used() * BLOCK_VOXELS
     }
 
     /// Writes voxel `v` directly (tests of the meshing).
