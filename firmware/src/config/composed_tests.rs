@@ -103,6 +103,8 @@ fn the_composed_sections_write_the_keys_they_always_had() {
         "overhang_depth_m",
         "pessimistic_friction",
         "pessimistic_tilt_margin_deg",
+        "pessimistic_climb_m",
+        "low_grip_intensity",
     ];
     assert_eq!(keys_of("simulator"), sorted(&simulator));
 }
