@@ -243,21 +243,26 @@ impl Terrain {
         integrated
     }
 
-    /// The brightest return within a voxel of the one holding `p` (0:
-    /// none measured).
+    /// The brightest return in the voxel holding `p` or one sharing a face
+    /// with it (0: none measured): the meshed surface passes within half a
+    /// voxel of the returns that made it.
     fn brightest_near(&self, p: [f64; 3]) -> u8 {
-        let [x, y, z] = self.tsdf.voxel_of(p);
-        let mut most = 0;
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    if let Some(s) = self.tsdf.voxel_slot([x + dx, y + dy, z + dz]) {
-                        most = most.max(self.brightest[s]);
-                    }
-                }
-            }
-        }
-        most
+        const AROUND: [[i32; 3]; 7] = [
+            [0, 0, 0],
+            [1, 0, 0],
+            [-1, 0, 0],
+            [0, 1, 0],
+            [0, -1, 0],
+            [0, 0, 1],
+            [0, 0, -1],
+        ];
+        let v = self.tsdf.voxel_of(p);
+        AROUND
+            .iter()
+            .filter_map(|d| self.tsdf.voxel_slot([v[0] + d[0], v[1] + d[1], v[2] + d[2]]))
+            .map(|s| self.brightest[s])
+            .max()
+            .unwrap_or(0)
     }
 
     /// The box (with a voxel's margin) whose points are integrated.

@@ -10,7 +10,8 @@ use super::{range, ConfigError};
 pub struct MapsConfig {
     /// Keep the maps (needs SLAM).
     pub enabled: bool,
-    /// Points kept per keyframe for mapping (2 mm integers, 6 bytes each);
+    /// Points kept per keyframe for mapping (2 mm integers and the
+    /// return's intensity, 7 bytes each);
     /// a denser revolution is thinned evenly.
     pub keyframe_points: usize,
     /// Returns farther than this from the sensor are not mapped.
