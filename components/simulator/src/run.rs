@@ -665,10 +665,12 @@ impl InternalSim {
                     slope,
                     half: FOOTPRINT_PAD_M,
                 };
-                let pad = ribbon::pad(&self.terrain, &footing);
+                let mut pad = ribbon::pad(&self.terrain, &footing);
                 // Level, the strip follows the plan as it always did.
                 let tilted = slope != [0.0; 2];
-                let strip = self.ribbon(tilted.then_some(&footing), footing.at);
+                let mut strip = self.ribbon(tilted.then_some(&footing), footing.at);
+                self.terrain.read_grip(&mut pad);
+                self.terrain.read_grip(&mut strip);
                 let _ = r.add_ground(&pad);
                 let _ = r.add_ground(&strip);
                 self.rover = Some(Box::new(r));

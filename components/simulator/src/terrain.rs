@@ -243,6 +243,30 @@ impl Terrain {
         integrated
     }
 
+    /// Give each triangle of `mesh` (laid on the seen ground: the pad and
+    /// the strip) the grip its ground reads.
+    pub fn read_grip(&self, mesh: &mut Mesh) {
+        if self.brightest.is_empty() {
+            return;
+        }
+        for (t, material) in mesh.triangles.iter().zip(mesh.materials.iter_mut()) {
+            *material = self.grip_at(t.map(|v| mesh.vertices[v as usize]));
+        }
+    }
+
+    /// Mud where the triangle's ground reads darker than
+    /// `low_grip_intensity`, rock elsewhere (and where nothing was read).
+    fn grip_at(&self, corners: [[f32; 3]; 3]) -> Material {
+        let centre =
+            [0, 1, 2].map(|k| f64::from(corners[0][k] + corners[1][k] + corners[2][k]) / 3.0);
+        let b = self.brightest_near(centre);
+        if b > 0 && f64::from(b) < self.low_grip_intensity {
+            Material::Mud
+        } else {
+            Material::Rock
+        }
+    }
+
     /// The brightest return in the voxel holding `p` or one sharing a face
     /// with it (0: none measured): the meshed surface passes within half a
     /// voxel of the returns that made it.
@@ -259,7 +283,10 @@ impl Terrain {
         let v = self.tsdf.voxel_of(p);
         AROUND
             .iter()
-            .filter_map(|d| self.tsdf.voxel_slot([v[0] + d[0], v[1] + d[1], v[2] + d[2]]))
+            .filter_map(|d| {
+                self.tsdf
+                    .voxel_slot([v[0] + d[0], v[1] + d[1], v[2] + d[2]])
+            })
             .map(|s| self.brightest[s])
             .max()
             .unwrap_or(0)
@@ -351,19 +378,14 @@ impl Terrain {
         self.chunk.materials.clear();
         self.chunk.vertices.extend_from_slice(&m.vertices);
         self.chunk.triangles.extend_from_slice(&m.triangles);
-        if self.brightest.is_empty() {
-            self.chunk
-                .materials
-                .extend(std::iter::repeat_n(Material::Rock, m.triangles.len()));
-        } else {
-            for t in &m.triangles {
-                let c = t.map(|v| m.vertices[v as usize]);
-                let centre = [0, 1, 2].map(|k| f64::from(c[0][k] + c[1][k] + c[2][k]) / 3.0);
-                let b = self.brightest_near(centre);
-                let dark = b > 0 && f64::from(b) < self.low_grip_intensity;
-                self.chunk
-                    .materials
-                    .push(if dark { Material::Mud } else { Material::Rock });
+        self.chunk
+            .materials
+            .extend(std::iter::repeat_n(Material::Rock, m.triangles.len()));
+        if !self.brightest.is_empty() {
+            for i in 0..self.chunk.triangles.len() {
+                let t = self.chunk.triangles[i];
+                let grip = self.grip_at(t.map(|v| self.chunk.vertices[v as usize]));
+                self.chunk.materials[i] = grip;
             }
         }
         self.triangles += m.triangles.len();
