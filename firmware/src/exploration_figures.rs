@@ -255,6 +255,7 @@ pub fn internal_sim(
         "no_way_back",
         "overhang",
         "fell",
+        "too_steep_for_grip",
     ];
     Some(InternalSimFigures {
         validations: c.validations,

@@ -217,7 +217,7 @@ impl Navigator {
             // plan without a way back was driven whole.
             if !matches!(
                 v.outcome,
-                Outcome::TippedOver | Outcome::Fell | Outcome::NoWayBack
+                Outcome::TippedOver | Outcome::Fell | Outcome::NoWayBack | Outcome::TooSteepForGrip
             ) {
                 if let Some(plan) = self.out.shown() {
                     ex.offer_partial(&plan.poses, at);

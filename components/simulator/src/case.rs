@@ -108,6 +108,7 @@ fn outcome_code(o: Option<Outcome>) -> u8 {
         Some(Outcome::NoWayBack) => 7,
         Some(Outcome::Overhang) => 8,
         Some(Outcome::Fell) => 9,
+        Some(Outcome::TooSteepForGrip) => 10,
     }
 }
 
@@ -123,6 +124,7 @@ fn outcome_from(c: u8) -> Result<Option<Outcome>, CaseError> {
         7 => Outcome::NoWayBack,
         8 => Outcome::Overhang,
         9 => Outcome::Fell,
+        10 => Outcome::TooSteepForGrip,
         _ => return Err(CaseError::Outcome(c)),
     }))
 }

@@ -16,6 +16,7 @@
 //! executive can run it as anytime work.
 
 mod case;
+mod grip;
 mod params;
 mod prediction;
 mod prefix;

@@ -106,14 +106,19 @@ pub struct SimulatorParams {
     /// wheels hold the rover against the slope, so a grip the scans
     /// cannot read decides whether it comes back down (0: every plan).
     pub pessimistic_climb_m: f64,
-    /// Ground whose brightest return reads under this intensity is driven
-    /// at mud's grip, the rest at rock's (0: rock everywhere). A surface
-    /// returns at most its reflectance, at normal incidence, and less the
-    /// more grazing the ray: a dark surface never reads bright, and a
-    /// bright one reads dark only where every ray grazed it (flat ground
-    /// seen from afar, where grip decides little), while a slope facing
-    /// the rover, where grip decides a climb, is seen nearer its normal.
-    pub low_grip_intensity: f64,
+    /// Ground whose reflectance reads under this is driven at mud's grip,
+    /// the rest at rock's (0: rock everywhere). The reflectance is the
+    /// brightest return of the ground's voxel with its incidence taken out
+    /// (see `grip.rs`): rock reads about 60, mud 25, boulders 90, concrete
+    /// 110, at any range and angle the ground is seen from.
+    pub low_grip_reflectance: f64,
+    /// The most tilt the rover is simulated at on ground read as low
+    /// grip, deg (0: no limit): steeper, the plan is refused
+    /// ([`Outcome::TooSteepForGrip`](crate::Outcome::TooSteepForGrip)),
+    /// up or down, unless the rover already stands steeper. The map's
+    /// slope is gentler than the true one where a climb stalls, so the
+    /// simulated physics passes climbs the true mud does not hold.
+    pub low_grip_max_tilt_deg: f64,
 }
 
 impl Default for SimulatorParams {
@@ -161,10 +166,9 @@ impl Default for SimulatorParams {
             pessimistic_friction: 0.0,
             pessimistic_tilt_margin_deg: 0.0,
             pessimistic_climb_m: 0.5,
-            // Mud's returns read 25 at most (its reflectance, at normal
-            // incidence), rock's 60 there: darker than 26, the ground may
-            // be mud.
-            low_grip_intensity: 26.0,
+            // Between mud's reflectance (25) and rock's (60).
+            low_grip_reflectance: 40.0,
+            low_grip_max_tilt_deg: 22.0,
             physics,
         }
     }
@@ -230,11 +234,18 @@ impl SimulatorParams {
             "0..=30",
         )?;
         range(
-            "low_grip_intensity",
-            self.low_grip_intensity,
+            "low_grip_reflectance",
+            self.low_grip_reflectance,
             0.0,
-            255.0,
-            "0..=255",
+            1275.0,
+            "0..=1275",
+        )?;
+        range(
+            "low_grip_max_tilt_deg",
+            self.low_grip_max_tilt_deg,
+            0.0,
+            90.0,
+            "0..=90",
         )?;
         range(
             "pessimistic_climb_m",
@@ -286,10 +297,16 @@ impl SimulatorParams {
                 self.pessimistic_tilt_margin_deg
             ));
         }
-        if !(0.0..=255.0).contains(&self.low_grip_intensity) {
+        if !(0.0..=90.0).contains(&self.low_grip_max_tilt_deg) {
             return Err(format!(
-                "simulator low_grip_intensity must be within 0..=255, is {}",
-                self.low_grip_intensity
+                "simulator low_grip_max_tilt_deg must be within 0..=90, is {}",
+                self.low_grip_max_tilt_deg
+            ));
+        }
+        if !(0.0..=1275.0).contains(&self.low_grip_reflectance) {
+            return Err(format!(
+                "simulator low_grip_reflectance must be within 0..=1275, is {}",
+                self.low_grip_reflectance
             ));
         }
         if !(0.0..=100.0).contains(&self.pessimistic_climb_m) {

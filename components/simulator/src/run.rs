@@ -61,6 +61,10 @@ pub enum Outcome {
     /// The goal was reached with a wheel over an edge: no ground under
     /// its hub within its radius and `overhang_depth_m`.
     Overhang,
+    /// The rover stood steeper than
+    /// [`SimulatorParams::low_grip_max_tilt_deg`] on ground read as low
+    /// grip.
+    TooSteepForGrip,
     /// The rover fell: sank faster than a drive down a step allows
     /// (`speleo_physics::rover::FALL_SPEED_MPS`, about half a metre of
     /// free fall), off a ledge the map shows as a slope or not at all.
@@ -188,6 +192,14 @@ const FOOTPRINT_PAD_M: f64 = 1.0;
 /// The follower runs at 50 Hz, as the control task does.
 const CONTROL_PERIOD_S: f64 = 0.02;
 const SAMPLE_PERIOD_S: f64 = 0.1;
+/// A rover already standing on a slope read as low grip may tilt this
+/// much more before it is too steep, deg: settling rocks the model a few
+/// degrees, and a way off the slope must not be refused for it.
+const START_TILT_SLACK_DEG: f64 = 3.0;
+/// The ground's grip under the rover is read this many voxels deeper
+/// than its estimated height too (the base's height above it varies as
+/// the wheels sink and the body pitches).
+const GROUND_BELOW_VOXELS: i32 = 3;
 
 /// See the crate documentation.
 pub struct InternalSim {
@@ -892,6 +904,9 @@ impl InternalSim {
         if rover.falls > 0 {
             return self.verdict_now(Outcome::Fell);
         }
+        if self.too_steep_for_grip(&s, tilt) {
+            return self.verdict_now(Outcome::TooSteepForGrip);
+        }
         if !s.position.iter().all(|v| v.is_finite()) || s.position[2] < self.terrain.lo[2] - 1.0 {
             return self.verdict_now(Outcome::NoGround);
         }
@@ -930,6 +945,24 @@ impl InternalSim {
             return self.verdict_now(Outcome::Timeout);
         }
         None
+    }
+
+    /// Whether the rover, tilted `tilt` deg, stands steeper than its
+    /// ground's read grip allows and steeper than where it started.
+    fn too_steep_for_grip(&self, s: &speleo_physics::BodyState, tilt: f64) -> bool {
+        let limit = self.p.low_grip_max_tilt_deg;
+        if limit <= 0.0 || tilt <= limit.max(self.start_tilt_deg + START_TILT_SLACK_DEG) {
+            return false;
+        }
+        let [w, x, y, z] = s.orientation;
+        let up = [
+            2.0 * (x * z + w * y),
+            2.0 * (y * z - w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ];
+        let h = self.p.base_height_m;
+        let ground = [0, 1, 2].map(|k| s.position[k] - up[k] * h);
+        self.terrain.reads_low_grip(ground, up, GROUND_BELOW_VOXELS)
     }
 
     /// Whether a wheel stands over an edge of the ground built: what the

@@ -5,6 +5,7 @@ use speleo_mapping::marching_cubes::MeshBuffers;
 use speleo_mapping::tsdf::{TsdfParams, TsdfVolume, Weighting};
 use speleo_physics::{Material, Mesh};
 
+use crate::grip::ReturnsBySlot;
 use crate::SimulatorParams;
 
 /// Blocks a tile's vertices can lie in: a tile spans two blocks (0.4 m
@@ -84,12 +85,11 @@ pub(crate) struct Terrain {
     through_nx: usize,
     through_ny: usize,
     through_z: f64,
-    /// The brightest return integrated into each TSDF voxel (by its slot;
-    /// 0: no intensity measured).
-    brightest: Vec<u8>,
-    /// Ground whose brightest return reads under this is meshed as mud
-    /// (see [`SimulatorParams::low_grip_intensity`]).
-    low_grip_intensity: f64,
+    /// The brightest return integrated into each TSDF voxel, by its slot.
+    returns: ReturnsBySlot,
+    /// Ground whose reflectance reads under this is meshed as mud
+    /// (see [`SimulatorParams::low_grip_reflectance`]).
+    low_grip_reflectance: f64,
 }
 
 impl Terrain {
@@ -102,14 +102,14 @@ impl Terrain {
             min_weight: 0.0,
         })
         .map_err(|e| e.to_string())?;
-        let slots = if p.low_grip_intensity > 0.0 {
+        let slots = if p.low_grip_reflectance > 0.0 {
             tsdf.slots()
         } else {
             0
         };
         Ok(Terrain {
-            brightest: vec![0; slots],
-            low_grip_intensity: p.low_grip_intensity,
+            returns: ReturnsBySlot::new(slots),
+            low_grip_reflectance: p.low_grip_reflectance,
             tsdf,
             buffers: MeshBuffers::with_capacity(p.max_blocks, TILE_SLABS, TILE_TRIANGLES),
             chunk: Mesh {
@@ -133,8 +133,7 @@ impl Terrain {
     /// A new, empty world over the box `lo..hi`; rays down through
     /// `through_z` are counted (see [`seen_through`](Self::seen_through)).
     pub fn begin(&mut self, lo: [f64; 3], hi: [f64; 3], through_z: f64) {
-        let used = self.tsdf.slots_used().min(self.brightest.len());
-        self.brightest[..used].fill(0);
+        self.returns.clear(self.tsdf.slots_used());
         self.tsdf.clear();
         self.lo = lo;
         self.hi = hi;
@@ -219,7 +218,7 @@ impl Terrain {
     ) -> u64 {
         self.count_through(origin, points);
         let (lo, hi) = self.integrated_box();
-        let with_intensity = intensities.len() == points.len() && !self.brightest.is_empty();
+        let with_intensity = intensities.len() == points.len() && !self.returns.is_empty();
         let mut kept = 0;
         for i in 0..points.len() {
             let p = points[i];
@@ -236,7 +235,7 @@ impl Terrain {
         if with_intensity {
             for (p, &i) in points.iter().zip(intensities.iter()) {
                 if let Some(s) = self.tsdf.voxel_slot(self.tsdf.voxel_of(*p)) {
-                    self.brightest[s] = self.brightest[s].max(i);
+                    self.returns.record(s, origin, *p, i);
                 }
             }
         }
@@ -246,7 +245,7 @@ impl Terrain {
     /// Give each triangle of `mesh` (laid on the seen ground: the pad and
     /// the strip) the grip its ground reads.
     pub fn read_grip(&self, mesh: &mut Mesh) {
-        if self.brightest.is_empty() {
+        if self.returns.is_empty() {
             return;
         }
         for (t, material) in mesh.triangles.iter().zip(mesh.materials.iter_mut()) {
@@ -255,41 +254,54 @@ impl Terrain {
     }
 
     /// Mud where the triangle's ground reads darker than
-    /// `low_grip_intensity`, rock elsewhere (and where nothing was read).
+    /// `low_grip_reflectance`, rock elsewhere (and where nothing was read).
     fn grip_at(&self, corners: [[f32; 3]; 3]) -> Material {
-        let centre =
-            [0, 1, 2].map(|k| f64::from(corners[0][k] + corners[1][k] + corners[2][k]) / 3.0);
-        let b = self.brightest_near(centre);
-        if b > 0 && f64::from(b) < self.low_grip_intensity {
+        let c = corners.map(|v| v.map(f64::from));
+        let centre = [0, 1, 2].map(|k| (c[0][k] + c[1][k] + c[2][k]) / 3.0);
+        let (a, b) = (
+            [0, 1, 2].map(|k| c[1][k] - c[0][k]),
+            [0, 1, 2].map(|k| c[2][k] - c[0][k]),
+        );
+        let n = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if len <= 0.0 || !len.is_finite() {
+            return Material::Rock;
+        }
+        if self.reads_low_grip(centre, n.map(|v| v / len), 0) {
             Material::Mud
         } else {
             Material::Rock
         }
     }
 
-    /// The brightest return in the voxel holding `p` or one sharing a face
-    /// with it (0: none measured): the meshed surface passes within half a
-    /// voxel of the returns that made it.
-    fn brightest_near(&self, p: [f64; 3]) -> u8 {
-        const AROUND: [[i32; 3]; 7] = [
-            [0, 0, 0],
-            [1, 0, 0],
-            [-1, 0, 0],
-            [0, 1, 0],
-            [0, -1, 0],
-            [0, 0, 1],
-            [0, 0, -1],
-        ];
+    /// Whether the ground at `p` reads darker than `low_grip_reflectance`:
+    /// the brightest reflectance of the 3 x 3 x 3 voxels around the one
+    /// holding `p` and of `below` more voxels straight down, the incidence
+    /// taken against `normal`. A mesh triangle's normal follows the
+    /// voxels' steps, not the surface a ray hit (rock read through single
+    /// voxels reads as dark as 28); of a block of voxels at least one was
+    /// hit near its normal, and mud lies in patches wider than the block.
+    /// Nothing read there reads as rock.
+    pub fn reads_low_grip(&self, p: [f64; 3], normal: [f64; 3], below: i32) -> bool {
+        if self.returns.is_empty() {
+            return false;
+        }
         let v = self.tsdf.voxel_of(p);
-        AROUND
-            .iter()
+        let block = (0..27).map(|i| [i % 3 - 1, i / 3 % 3 - 1, i / 9 - 1]);
+        let column = (2..=below + 1).map(|d| [0, 0, -d]);
+        let brightest = block
+            .chain(column)
             .filter_map(|d| {
                 self.tsdf
                     .voxel_slot([v[0] + d[0], v[1] + d[1], v[2] + d[2]])
             })
-            .map(|s| self.brightest[s])
-            .max()
-            .unwrap_or(0)
+            .filter_map(|s| self.returns.reflectance(s, normal))
+            .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
+        brightest.is_some_and(|r| r < self.low_grip_reflectance)
     }
 
     /// The box (with a voxel's margin) whose points are integrated.
@@ -366,7 +378,7 @@ impl Terrain {
     }
 
     /// Mesh tile `i` into `chunk`: rock, or mud where the ground's
-    /// brightest return reads under [`SimulatorParams::low_grip_intensity`].
+    /// reflectance reads under [`SimulatorParams::low_grip_reflectance`].
     pub fn mesh_tile(&mut self, i: usize) {
         let (a, b) = self.tile_bounds(i);
         let lo = [a[0], a[1], self.lo[2]];
@@ -381,7 +393,7 @@ impl Terrain {
         self.chunk
             .materials
             .extend(std::iter::repeat_n(Material::Rock, m.triangles.len()));
-        if !self.brightest.is_empty() {
+        if !self.returns.is_empty() {
             for i in 0..self.chunk.triangles.len() {
                 let t = self.chunk.triangles[i];
                 let grip = self.grip_at(t.map(|v| self.chunk.vertices[v as usize]));
@@ -392,7 +404,7 @@ impl Terrain {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.tsdf.stats().memory_bytes + self.buffers.memory_bytes() + self.brightest.len()
+        self.tsdf.stats().memory_bytes + self.buffers.memory_bytes() + self.returns.memory_bytes()
     }
 }
 

@@ -104,7 +104,8 @@ fn the_composed_sections_write_the_keys_they_always_had() {
         "pessimistic_friction",
         "pessimistic_tilt_margin_deg",
         "pessimistic_climb_m",
-        "low_grip_intensity",
+        "low_grip_reflectance",
+        "low_grip_max_tilt_deg",
     ];
     assert_eq!(keys_of("simulator"), sorted(&simulator));
 }

@@ -37,11 +37,11 @@ pub struct ExplorationCounters {
     pub rims: u64,
     /// Plans driven in the internal simulator, those it passed and those
     /// it refused (by outcome: timeout, tip-over, stuck, missed, no ground,
-    /// no way back, overhang, fall).
+    /// no way back, overhang, fall, too steep for its grip).
     pub validations: u64,
     pub validated: u64,
     pub rejected_by_sim: u64,
-    pub sim_outcomes: [u64; 8],
+    pub sim_outcomes: [u64; 9],
     /// Refusals by the pessimistic rollout of plans the nominal one
     /// passed.
     pub refused_when_pessimistic: u64,

@@ -254,6 +254,7 @@ impl Exploration {
             Outcome::NoWayBack => 5,
             Outcome::Overhang => 6,
             Outcome::Fell => 7,
+            Outcome::TooSteepForGrip => 8,
         };
         self.counters.rejected_by_sim += 1;
         self.counters.sim_outcomes[k] += 1;
