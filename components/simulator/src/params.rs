@@ -115,7 +115,7 @@ pub struct SimulatorParams {
     /// The most tilt the rover is simulated at on ground read as low
     /// grip, deg (0: no limit): steeper, the plan is refused
     /// ([`Outcome::TooSteepForGrip`](crate::Outcome::TooSteepForGrip)),
-    /// up or down, unless the rover already stands steeper. The map's
+    /// up or down, unless the rover started steeper. The map's
     /// slope is gentler than the true one where a climb stalls, so the
     /// simulated physics passes climbs the true mud does not hold.
     pub low_grip_max_tilt_deg: f64,

@@ -192,10 +192,6 @@ const FOOTPRINT_PAD_M: f64 = 1.0;
 /// The follower runs at 50 Hz, as the control task does.
 const CONTROL_PERIOD_S: f64 = 0.02;
 const SAMPLE_PERIOD_S: f64 = 0.1;
-/// A rover already standing on a slope read as low grip may tilt this
-/// much more before it is too steep, deg: settling rocks the model a few
-/// degrees, and a way off the slope must not be refused for it.
-const START_TILT_SLACK_DEG: f64 = 3.0;
 /// The ground's grip under the rover is read this many voxels deeper
 /// than its estimated height too (the base's height above it varies as
 /// the wheels sink and the body pitches).
@@ -948,10 +944,12 @@ impl InternalSim {
     }
 
     /// Whether the rover, tilted `tilt` deg, stands steeper than its
-    /// ground's read grip allows and steeper than where it started.
+    /// ground's read grip allows. A rover that started steeper than that
+    /// is not judged so: every way off the slope must stay open, and
+    /// driving off it pitches the body further for a while.
     fn too_steep_for_grip(&self, s: &speleo_physics::BodyState, tilt: f64) -> bool {
         let limit = self.p.low_grip_max_tilt_deg;
-        if limit <= 0.0 || tilt <= limit.max(self.start_tilt_deg + START_TILT_SLACK_DEG) {
+        if limit <= 0.0 || tilt <= limit || self.start_tilt_deg > limit {
             return false;
         }
         let [w, x, y, z] = s.orientation;

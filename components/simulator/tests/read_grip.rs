@@ -17,8 +17,8 @@ fn gentle(x: f64) -> f64 {
     (x - 1.0).max(0.0) * 8f64.to_radians().tan()
 }
 
-/// Level for a metre, then up at 15 degrees (over the tilt limit on mud,
-/// well within rock's grip).
+/// Level for a metre, then up at 15 degrees (within both rock's and
+/// mud's grip).
 fn rock_slope(x: f64) -> f64 {
     (x - 1.0).max(0.0) * 15f64.to_radians().tan()
 }
@@ -112,8 +112,17 @@ fn verdict(
 ) -> Outcome {
     let p = SimulatorParams {
         low_grip_reflectance,
-        pessimistic_friction: 0.0,
         ..SimulatorParams::default()
+    };
+    verdict_with(p, z, scans, x0, x1)
+}
+
+/// The verdict on that plan with the simulator's settings `p` (the
+/// pessimistic rollout off).
+fn verdict_with(p: SimulatorParams, z: fn(f64) -> f64, scans: &Scans, x0: f64, x1: f64) -> Outcome {
+    let p = SimulatorParams {
+        pessimistic_friction: 0.0,
+        ..p
     };
     let base = p.base_height_m;
     let mut sim = InternalSim::new(p).expect("sim");
@@ -193,7 +202,18 @@ fn mud_under_the_tilt_limit_is_driven() {
 }
 
 #[test]
-fn a_way_down_off_a_steep_mud_slope_is_not_refused_for_its_grip() {
-    let down = verdict(ramp, &Scans::along(ramp, MUD), 40.0, 3.0, 0.0);
+fn a_way_down_off_a_mud_slope_steeper_than_the_limit_is_not_refused_for_its_grip() {
+    // With the limit under the slope, from the foot the climb is refused,
+    // from up the slope the way down is not.
+    let p = SimulatorParams {
+        low_grip_max_tilt_deg: 12.0,
+        ..SimulatorParams::default()
+    };
+    let scans = Scans::along(rock_slope, MUD);
+    assert_eq!(
+        verdict_with(p.clone(), rock_slope, &scans, 0.0, 3.5),
+        Outcome::TooSteepForGrip
+    );
+    let down = verdict_with(p, rock_slope, &scans, 3.0, 0.0);
     assert_ne!(down, Outcome::TooSteepForGrip);
 }
