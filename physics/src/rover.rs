@@ -381,6 +381,14 @@ impl PhysicsRover {
         })
     }
 
+    /// Where each wheel's hub (FL, FR, RL, RR) stands after the last step.
+    pub fn hubs(&self) -> [[f64; 3]; WHEELS] {
+        self.wheels.map(|h| {
+            let t = self.world.bodies[h].translation();
+            [f64::from(t.x), f64::from(t.y), f64::from(t.z)]
+        })
+    }
+
     /// The state after the last step.
     pub fn state(&self) -> &BodyState {
         &self.state

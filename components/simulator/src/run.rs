@@ -193,9 +193,15 @@ const FOOTPRINT_PAD_M: f64 = 1.0;
 const CONTROL_PERIOD_S: f64 = 0.02;
 const SAMPLE_PERIOD_S: f64 = 0.1;
 /// The ground's grip under the rover is read this many voxels deeper
-/// than its estimated height too (the base's height above it varies as
-/// the wheels sink and the body pitches).
+/// than where the wheels stand on it too (they sink into the mesh).
 const GROUND_BELOW_VOXELS: i32 = 3;
+/// The ground under a hub is looked for this far under the wheel, m.
+const GROUND_PROBE_M: f64 = 0.3;
+/// A rover standing within this of the tilt limit on low grip, deg, is
+/// not held to it: the map's slope there moves by a few degrees as scans
+/// come in, and the way the rover came must stay open (a rover stopped at
+/// 21.5 degrees under a 22 degree limit had every way down refused).
+const GRIP_EXEMPT_DEG: f64 = 3.0;
 
 /// See the crate documentation.
 pub struct InternalSim {
@@ -900,7 +906,7 @@ impl InternalSim {
         if rover.falls > 0 {
             return self.verdict_now(Outcome::Fell);
         }
-        if self.too_steep_for_grip(&s, tilt) {
+        if self.too_steep_for_grip(tilt) {
             return self.verdict_now(Outcome::TooSteepForGrip);
         }
         if !s.position.iter().all(|v| v.is_finite()) || s.position[2] < self.terrain.lo[2] - 1.0 {
@@ -943,24 +949,48 @@ impl InternalSim {
         None
     }
 
-    /// Whether the rover, tilted `tilt` deg, stands steeper than its
-    /// ground's read grip allows. A rover that started steeper than that
-    /// is not judged so: every way off the slope must stay open, and
-    /// driving off it pitches the body further for a while.
-    fn too_steep_for_grip(&self, s: &speleo_physics::BodyState, tilt: f64) -> bool {
+    /// Whether the rover, tilted `tilt` deg, stands on ground sloping
+    /// more than its read grip allows: the slope under its wheels, not the
+    /// body's tilt, which pitches a few degrees more as it starts and
+    /// brakes. A rover that started within [`GRIP_EXEMPT_DEG`] of the
+    /// limit is not judged so: every way off the slope must stay open,
+    /// and a plan that brought it there must be able to take it back.
+    fn too_steep_for_grip(&self, tilt: f64) -> bool {
         let limit = self.p.low_grip_max_tilt_deg;
-        if limit <= 0.0 || tilt <= limit || self.start_tilt_deg > limit {
+        if limit <= 0.0 || tilt <= limit || self.start_tilt_deg > limit - GRIP_EXEMPT_DEG {
             return false;
         }
-        let [w, x, y, z] = s.orientation;
-        let up = [
-            2.0 * (x * z + w * y),
-            2.0 * (y * z - w * x),
-            1.0 - 2.0 * (x * x + y * y),
+        let Some(rover) = &self.rover else {
+            return false;
+        };
+        let depth = rover.ground_under_hubs(self.p.physics.wheel_radius_m + GROUND_PROBE_M);
+        let hubs = rover.hubs();
+        let mut ground = [[0.0; 3]; 4];
+        for w in 0..4 {
+            let Some(d) = depth[w] else {
+                return false;
+            };
+            ground[w] = [hubs[w][0], hubs[w][1], hubs[w][2] - d];
+        }
+        // The diagonals FR-RL and FL-RR span the plane the wheels stand on.
+        let a = [0, 1, 2].map(|k| ground[1][k] - ground[2][k]);
+        let b = [0, 1, 2].map(|k| ground[0][k] - ground[3][k]);
+        let n = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
         ];
-        let h = self.p.base_height_m;
-        let ground = [0, 1, 2].map(|k| s.position[k] - up[k] * h);
-        self.terrain.reads_low_grip(ground, up, GROUND_BELOW_VOXELS)
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if len <= 0.0 || !len.is_finite() {
+            return false;
+        }
+        let up = n.map(|c| c / len * n[2].signum());
+        let slope = up[2].clamp(-1.0, 1.0).acos().to_degrees();
+        if slope <= limit {
+            return false;
+        }
+        let centre = [0, 1, 2].map(|k| ground.iter().map(|g| g[k]).sum::<f64>() / 4.0);
+        self.terrain.reads_low_grip(centre, up, GROUND_BELOW_VOXELS)
     }
 
     /// Whether a wheel stands over an edge of the ground built: what the

@@ -214,7 +214,7 @@ impl Terrain {
         &mut self,
         origin: [f64; 3],
         points: &mut Vec<[f64; 3]>,
-        intensities: &mut Vec<u8>,
+        intensities: &mut [u8],
     ) -> u64 {
         self.count_through(origin, points);
         let (lo, hi) = self.integrated_box();

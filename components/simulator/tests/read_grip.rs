@@ -167,8 +167,20 @@ fn a_climb_too_steep_for_mud_is_refused_where_it_reads_as_mud_and_passed_on_rock
         Outcome::Reached,
         "rock's grip holds 22 degrees"
     );
+    let mud = Scans::along(ramp, MUD);
+    let on_mud = verdict(ramp, &mud, 40.0, 0.0, 4.0);
+    assert_ne!(
+        on_mud,
+        Outcome::Reached,
+        "mud's grip does not hold 22 degrees"
+    );
+    // Under the slope, the limit refuses the climb before the grip does.
+    let p = SimulatorParams {
+        low_grip_max_tilt_deg: 18.0,
+        ..SimulatorParams::default()
+    };
     assert_eq!(
-        verdict(ramp, &Scans::along(ramp, MUD), 40.0, 0.0, 4.0),
+        verdict_with(p, ramp, &mud, 0.0, 4.0),
         Outcome::TooSteepForGrip
     );
 }
