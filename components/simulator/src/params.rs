@@ -66,8 +66,8 @@ pub struct SimulatorParams {
     /// that tilt; off, it is put down level, yaw only. On: replayed on the
     /// true worlds, the dev matrix's plans agree with the truth in 90 % of
     /// verdicts against 80 % put down level (`docs/margins.md`), and the
-    /// dev matrix with it and the way home's shortcuts passed more
-    /// missions than without (`campaigns/way-home-tilted/`).
+    /// dev matrix with it, the way home's shortcuts and the grip read
+    /// passed more missions than without (`campaigns/baseline/`).
     pub start_tilted: bool,
     /// With `start_tilted` off, a rover tilted more than this still starts
     /// as it stands, deg (90: never). Put down level on the lava tube's
@@ -95,7 +95,9 @@ pub struct SimulatorParams {
     pub overhang_depth_m: f64,
     /// A plan that reaches its goal is driven a second time, pessimistic,
     /// and passes only if that reaches the goal too: on the same ground
-    /// with its friction at most this (0: no second rollout) ...
+    /// with its friction at most this (0: no second rollout) ... Off: on
+    /// the dev matrix, mud's grip on every climb stranded 8 missions of
+    /// 17 on their way home (`docs/mission-history.md`, 2026-12-05).
     pub pessimistic_friction: f64,
     /// ... the rover started as it stands, pitched and rolled, and tipped
     /// over this much under `tip_over_deg`, deg (the tilt the map gets
