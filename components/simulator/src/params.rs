@@ -67,7 +67,7 @@ pub struct SimulatorParams {
     /// true worlds, the dev matrix's plans agree with the truth in 90 % of
     /// verdicts against 80 % put down level (`docs/margins.md`), and the
     /// dev matrix with it, the way home's shortcuts and the grip read
-    /// passed more missions than without (`campaigns/baseline/`).
+    /// passed more missions than without (`campaigns/accepted/`).
     pub start_tilted: bool,
     /// With `start_tilted` off, a rover tilted more than this still starts
     /// as it stands, deg (90: never). Put down level on the lava tube's
