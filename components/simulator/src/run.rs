@@ -61,8 +61,8 @@ pub enum Outcome {
     /// The goal was reached with a wheel over an edge: no ground under
     /// its hub within its radius and `overhang_depth_m`.
     Overhang,
-    /// The rover stood steeper than
-    /// [`SimulatorParams::low_grip_max_tilt_deg`] on ground read as low
+    /// The ground under the rover's wheels sloped more than
+    /// [`SimulatorParams::low_grip_max_tilt_deg`] where it reads as low
     /// grip.
     TooSteepForGrip,
     /// The rover fell: sank faster than a drive down a step allows
