@@ -86,7 +86,7 @@ fn a_short_tube_is_explored_end_to_end_and_the_rover_comes_home() {
     assert!(f("energy_unmeasured_s") < 1.0, "{e}");
 }
 
-/// With a 6 Wh budget (the whole tube takes about 10 Wh) the rover turns
+/// With a 6 Wh budget (the whole tube takes about 14 Wh) the rover turns
 /// home while what is left is what the way home is expected to take,
 /// and gets home within it.
 #[test]
@@ -104,9 +104,11 @@ fn an_energy_budget_sends_the_rover_home_in_time() {
     assert_eq!(e["return_reason"], "energy", "{e}");
     assert!(f("home_error_m") <= 0.5, "{e}");
     assert!(f("energy_used_wh") <= 6.0, "{e}");
-    // It went some way first, and not all of it.
+    // It went some way first, and turned before the tube's far end, about
+    // 18 m from the start (from the middle of the tube the scans see most
+    // of it, so the share seen says little about how far it went).
     assert!(f("distance_m") > 10.0, "{e}");
-    assert!(f("coverage_fraction") < 0.85, "{e}");
+    assert!(f("reach_m") < 15.0, "{e}");
 }
 
 /// A rover let go 3 m over the flat world's ground falls, is wrecked, and

@@ -96,14 +96,18 @@ impl Navigator {
             why,
             expansions = self.search.stats().expansions,
             window_m = 2.0 * self.window_half_m,
+            met_window_edge = self.lat.met_window_edge(),
             "no path to the goal"
         );
         ex.counters.goals_unreachable += 1;
         let at = self.query.order[self.query.tried].1;
-        // Only a window as large as it gets proves a goal out of reach:
-        // the way to it may leave a smaller one (from the far side of a
-        // garage level, the way onto the ramp whose top was the goal).
-        if ex.phase() == ExplorerPhase::Exploring && self.window_half_m >= self.window_max_half_m {
+        // The way to a goal may leave the window (from the far side of a
+        // garage level, the way onto the ramp whose top was the goal): a
+        // search that ran into the window's border proves nothing until the
+        // window is as large as it gets. One that never met the border
+        // would search the same states in a larger window, and fail again.
+        let proven = self.window_half_m >= self.window_max_half_m || !self.lat.met_window_edge();
+        if ex.phase() == ExplorerPhase::Exploring && proven {
             ex.explorer.reject([at[0], at[1]]);
         }
         self.phase = self.try_goal(self.query.tried + 1);

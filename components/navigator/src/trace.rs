@@ -33,6 +33,7 @@ pub(crate) fn trace_graph_near(
             class = ?n.class,
             blocked = ?n.blocked,
             cut = n.cut,
+            window_edge = n.window_edge,
             "node"
         );
     }

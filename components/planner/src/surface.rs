@@ -268,6 +268,9 @@ pub struct SurfaceLattice {
     /// Successor work so far ([`Lattice::work`]): a path step or a
     /// footprint cell tested, one each.
     work: Cell<u64>,
+    /// Since [`begin`](Self::begin), some primitive ran into the growth
+    /// window's border ([`Node::window_edge`]).
+    met_window_edge: Cell<bool>,
 }
 
 fn direction(dx: i32, dy: i32) -> Option<u8> {
@@ -357,6 +360,7 @@ impl SurfaceLattice {
             open: BinaryHeap::with_capacity(8 * n + 1),
             path: RefCell::new(Vec::with_capacity(256)),
             work: Cell::new(0),
+            met_window_edge: Cell::new(false),
         })
     }
 
@@ -457,6 +461,7 @@ impl SurfaceLattice {
         self.open.clear();
         self.goal = goal;
         self.any_heading = false;
+        self.met_window_edge.set(false);
         self.prep = Prep::Solid(0);
         Ok(())
     }
@@ -871,6 +876,13 @@ impl SurfaceLattice {
             && (finite(node) || n.neighbours.iter().any(|&j| j != NONE && finite(j)))
     }
 
+    /// Whether the search since [`begin`](Self::begin) ran a primitive
+    /// into the growth window's border: only then can a larger window
+    /// change what it finds (within the same expansions, the same search).
+    pub fn met_window_edge(&self) -> bool {
+        self.met_window_edge.get()
+    }
+
     /// A few steps of Dijkstra from the goal: travel time at the forward
     /// speed over the nodes a path may pass, ms, scaled to stay admissible.
     fn settle(&mut self) -> Prep {
@@ -957,6 +969,9 @@ impl SurfaceLattice {
         for &k in &a.steps {
             let next = nodes[cur as usize].neighbours[k as usize];
             if next == NONE {
+                if nodes[cur as usize].window_edge {
+                    self.met_window_edge.set(true);
+                }
                 return None;
             }
             if !self.enterable(next) {

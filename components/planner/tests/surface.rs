@@ -6,7 +6,7 @@ use speleo_mapping::mls::{MlsMap, MlsParams};
 use speleo_planner::arastar::{AraParams, AraStar, Lattice, Progress, WORK_PER_UNIT};
 use speleo_planner::primitives::{generate, PrimitiveSpec};
 use speleo_planner::surface::{SurfaceLattice, SurfaceParams};
-use speleo_traversability::{TravMap, TravParams};
+use speleo_traversability::{TravMap, TravParams, Window};
 
 fn surface(m: &mut MlsMap, x: (f64, f64), y: (f64, f64), z: impl Fn(f64, f64) -> f64) {
     let mut pts = Vec::new();
@@ -637,4 +637,48 @@ fn a_floor_curving_up_into_a_wall_is_no_rock() {
     assert!(bump > 0.08, "bump {bump} m");
     assert_eq!(rock, 0.0);
     assert!(across.iter().all(|&(_, j)| !lat.over_a_rock(j)));
+}
+
+/// A search on the graph grown in `window` around (2, 1.5) on an 8 m by
+/// 3 m floor, from (1, 1.5) to (3.3, 1.5): whether it ran a primitive into
+/// the window's border.
+fn met_the_window_edge(window: Window) -> bool {
+    let mut m = MlsMap::new(MlsParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    surface(&mut m, (0.0, 8.0), (0.0, 3.0), |_, _| 0.0);
+    let mut trav = TravMap::new(TravParams::default()).unwrap_or_else(|e| panic!("{e}"));
+    trav.begin(&m, [1.0, 1.5, 0.0], Some(window))
+        .unwrap_or_else(|e| panic!("{e}"));
+    while !trav.grow(&m, 1000) {}
+    let (s, g) = match (
+        trav.node_at(1.0, 1.5, 0.0, 0.3),
+        trav.node_at(3.3, 1.5, 0.0, 0.3),
+    ) {
+        (Some(s), Some(g)) => (s, g),
+        other => panic!("no start or goal node: {other:?}"),
+    };
+    let lat = prepared(&m, trav, SurfaceParams::default(), (g, 0));
+    let mut a = AraStar::new(lat.max_state_count(), lat.max_successors());
+    a.start(
+        &lat,
+        lat.state(s, 0),
+        lat.goal_state(),
+        AraParams::default(),
+    );
+    loop {
+        match a.step(&lat, 500) {
+            Progress::Searching | Progress::Solution { .. } => {}
+            Progress::Optimal { .. } => break,
+            other => panic!("no plan across the floor: {other:?}"),
+        }
+    }
+    lat.met_window_edge()
+}
+
+#[test]
+fn a_search_tells_whether_it_ran_into_the_growth_windows_border() {
+    // The goal 0.2 m inside a 3 m window: primitives from round it leave
+    // the window. In a window larger than the floor they meet only the
+    // floor's own edges, which a larger window would not move.
+    assert!(met_the_window_edge(Window::around(2.0, 1.5, 1.5, 0.1)));
+    assert!(!met_the_window_edge(Window::around(4.0, 1.5, 6.0, 0.1)));
 }

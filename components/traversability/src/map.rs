@@ -114,6 +114,9 @@ pub struct Node {
     /// The node limit refused a neighbour of it: a full graph stops here,
     /// the map does not (like a growth window's border).
     pub cut: bool,
+    /// The growth window refused a neighbour of it: a larger window would
+    /// link on from here.
+    pub window_edge: bool,
 }
 
 #[derive(Debug, Error, PartialEq)]
@@ -607,6 +610,7 @@ impl TravMap {
         for (k, (dx, dy)) in NEIGHBOURS.iter().enumerate() {
             let (jx, jy) = (n.ix + dx, n.iy + dy);
             if !self.in_window(jx, jy) {
+                self.nodes[i as usize].window_edge = true;
                 continue;
             }
             let cell = self.near_cell(mls, jx, jy);
@@ -723,6 +727,7 @@ impl TravMap {
             neighbours: [NONE; 8],
             touches_unobserved: false,
             cut: false,
+            window_edge: false,
         });
         let head = self.by_cell.push_front(ix, iy, i);
         self.next_in_cell.push(head);
