@@ -104,6 +104,10 @@ fn parse_udp(ip: &[u8]) -> Parsed<'_> {
     )
 }
 
+/// A pcap file's global header: magic, version, zone, accuracy, snap
+/// length, link type.
+const PCAP_HEADER_BYTES: u64 = 24;
+
 /// Every UDP datagram of a capture, in capture order.
 pub fn read_udp(path: &Path) -> Result<(Vec<Datagram>, PcapCounters), PcapError> {
     let p = path.display().to_string();
@@ -111,6 +115,32 @@ pub fn read_udp(path: &Path) -> Result<(Vec<Datagram>, PcapCounters), PcapError>
         path: p.clone(),
         source,
     })?;
+    // A directory opens, and an empty file is a valid stream of nothing:
+    // both are named here rather than as a reader's failure to read.
+    let len = file
+        .metadata()
+        .map_err(|source| PcapError::Open {
+            path: p.clone(),
+            source,
+        })
+        .map(|m| if m.is_dir() { None } else { Some(m.len()) })?;
+    match len {
+        None => {
+            return Err(PcapError::Format {
+                path: p,
+                why: "a directory, not a pcap capture".into(),
+            })
+        }
+        Some(n) if n < PCAP_HEADER_BYTES => {
+            return Err(PcapError::Format {
+                path: p,
+                why: format!(
+                    "{n} bytes, shorter than a pcap file header ({PCAP_HEADER_BYTES} bytes)"
+                ),
+            })
+        }
+        Some(_) => {}
+    }
     let mut reader = PcapReader::new(file).map_err(|e| PcapError::Format {
         path: p.clone(),
         why: format!("not a pcap capture: {e}"),

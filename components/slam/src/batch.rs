@@ -47,6 +47,14 @@ pub struct BatchResult {
 pub enum BatchError {
     /// `--init file` on a file without vertices.
     NoVertices,
+    /// Nothing to optimise.
+    NoEdges,
+    /// Vertex `id` is joined by no chain of edges to the anchor `anchor`
+    /// (or, but for the chordal start, to a fixed vertex).
+    Unjoined {
+        id: u64,
+        anchor: u64,
+    },
     Init(String),
     Solver(SolverError),
 }
@@ -60,6 +68,11 @@ impl std::fmt::Display for BatchError {
                     "the file has no vertices to start from: use --init chordal or spanning-tree"
                 )
             }
+            BatchError::NoEdges => write!(f, "the graph has no edges: there is nothing to optimise"),
+            BatchError::Unjoined { id, anchor } => write!(
+                f,
+                "vertex {id} is joined by no chain of edges to the held vertex {anchor}: its pose is undetermined (join it or remove it)"
+            ),
             BatchError::Init(e) => write!(f, "initialisation failed: {e}"),
             BatchError::Solver(e) => write!(f, "{e}"),
         }
@@ -71,6 +84,22 @@ impl std::error::Error for BatchError {}
 /// Initialise and optimise `g`; the anchor (first `FIX`ed vertex, else the
 /// first vertex) and every `FIX`ed vertex are held.
 pub fn optimize(g: &G2o, init: Init, max_iterations: u32) -> Result<BatchResult, BatchError> {
+    if g.edges.is_empty() {
+        return Err(BatchError::NoEdges);
+    }
+    let anchor = initialize::anchor(g);
+    // The chordal start holds the anchor only; the solver holds every
+    // FIX vertex too.
+    let mut roots = vec![anchor];
+    if !matches!(init, Init::Chordal) {
+        roots.extend((0..g.fixed.len()).filter(|&k| g.fixed[k]));
+    }
+    if let Some(k) = g.first_unjoined(&roots) {
+        return Err(BatchError::Unjoined {
+            id: g.ids[k],
+            anchor: g.ids[anchor],
+        });
+    }
     let t0 = Instant::now();
     let poses = match init {
         Init::File if !g.given.iter().any(|v| *v) => return Err(BatchError::NoVertices),
@@ -82,7 +111,6 @@ pub fn optimize(g: &G2o, init: Init, max_iterations: u32) -> Result<BatchResult,
     let initial_chi2 = g.chi2(&poses);
     let initial_objective = g.sesync_objective(&poses);
     let t1 = Instant::now();
-    let anchor = initialize::anchor(g);
     let kind = match g.dim {
         Dim::Two => VarKind::Pose2,
         Dim::Three => VarKind::Pose3,

@@ -168,7 +168,7 @@ impl G2o {
                         }
                         dim = Some(d);
                     }
-                    raws.push(raw);
+                    raws.push((n + 1, raw));
                 }
             }
         }
@@ -178,7 +178,7 @@ impl G2o {
         })?;
         let mut ids: Vec<u64> = raws
             .iter()
-            .flat_map(|r| match *r {
+            .flat_map(|(_, r)| match *r {
                 Raw::Vertex(i, _) | Raw::Fix(i) => [Some(i), None],
                 Raw::Edge(i, j, ..) => [Some(i), Some(j)],
             })
@@ -197,7 +197,8 @@ impl G2o {
             ids: Vec::new(),
             skipped_lines,
         };
-        for r in raws {
+        let mut edge_lines = Vec::new();
+        for (line, r) in raws {
             match r {
                 Raw::Vertex(i, p) => {
                     let k = index(i);
@@ -205,16 +206,72 @@ impl G2o {
                     g.given[k] = true;
                 }
                 Raw::Fix(i) => g.fixed[index(i)] = true,
-                Raw::Edge(i, j, z, info) => g.edges.push(Edge {
-                    i: index(i),
-                    j: index(j),
-                    z,
-                    info,
-                }),
+                Raw::Edge(i, j, z, info) => {
+                    g.edges.push(Edge {
+                        i: index(i),
+                        j: index(j),
+                        z,
+                        info,
+                    });
+                    edge_lines.push(line);
+                }
             }
         }
         g.ids = ids;
+        g.check_edges(&edge_lines)?;
         Ok(g)
+    }
+
+    /// The first vertex (by index) that no chain of edges joins to any of
+    /// `roots`: its pose, and its component's, is left undetermined.
+    pub fn first_unjoined(&self, roots: &[usize]) -> Option<usize> {
+        let n = self.ids.len();
+        let mut parent: Vec<usize> = (0..n).collect();
+        fn find(parent: &mut [usize], mut k: usize) -> usize {
+            while parent[k] != k {
+                parent[k] = parent[parent[k]];
+                k = parent[k];
+            }
+            k
+        }
+        for e in &self.edges {
+            let (a, b) = (find(&mut parent, e.i), find(&mut parent, e.j));
+            parent[a.max(b)] = a.min(b);
+        }
+        let rooted: Vec<usize> = roots.iter().map(|&r| find(&mut parent, r)).collect();
+        (0..n).find(|&k| {
+            let c = find(&mut parent, k);
+            !rooted.contains(&c)
+        })
+    }
+
+    /// Each edge (from line `lines[k]`) joins vertices the file gives, when
+    /// it gives any, and weighs both its rotation and its translation: an
+    /// edge to a vertex no line gives is a typo in a file with vertices,
+    /// and a singular information block leaves the pose undetermined.
+    fn check_edges(&self, lines: &[usize]) -> Result<(), G2oError> {
+        let any_given = self.given.iter().any(|g| *g);
+        for (e, &line) in self.edges.iter().zip(lines) {
+            if any_given {
+                if let Some(k) = [e.i, e.j].into_iter().find(|&k| !self.given[k]) {
+                    return Err(G2oError {
+                        line,
+                        why: format!(
+                            "edge to vertex {}, which no vertex line gives (a file with vertices must give every vertex its edges join)",
+                            self.ids[k]
+                        ),
+                    });
+                }
+            }
+            let (kappa, tau) = self.sesync_weights(e);
+            if !(kappa > 0.0 && tau > 0.0 && kappa.is_finite() && tau.is_finite()) {
+                return Err(G2oError {
+                    line,
+                    why: "the edge's information matrix is not positive definite (its rotation or translation block is zero or singular)".into(),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Write the graph (with `poses` as its vertices) in the file's own
@@ -412,5 +469,44 @@ FIX 0
         assert!(G2o::parse("").is_err());
         let g = G2o::parse("PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\nVERTEX_SE2 0 0 0 0\n").expect("skip");
         assert_eq!(g.skipped_lines, 1);
+    }
+
+    #[test]
+    fn an_edge_to_a_vertex_not_given_or_without_weight_is_named_by_its_line() {
+        let vertices = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n";
+        let e = G2o::parse(&format!("{vertices}EDGE_SE2 1 5 1 0 0 1 0 0 1 0 1\n"))
+            .expect_err("missing vertex");
+        assert_eq!(e.line, 3);
+        assert!(e.why.contains("vertex 5"), "{e}");
+        for info in [
+            "0 0 0 0 0 0",
+            "1 0 1 0 0 0",
+            "0 0 0 0 0 1",
+            "-1 0 -1 0 0 -1",
+        ] {
+            let e = G2o::parse(&format!("{vertices}EDGE_SE2 0 1 1 0 0 {info}\n")).expect_err(info);
+            assert_eq!(e.line, 3, "{info}");
+            assert!(e.why.contains("not positive definite"), "{e}");
+        }
+        let zero_3d = format!(
+            "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1{}\n",
+            " 0".repeat(21)
+        );
+        // Edges-only files create their vertices; a zero weight is refused.
+        assert!(
+            G2o::parse(&zero_3d.replacen("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n", "", 1))
+                .is_err_and(|e| e.line == 1 && e.why.contains("not positive definite"))
+        );
+        assert!(G2o::parse(&zero_3d).is_err_and(|e| e.why.contains("vertex 1")));
+    }
+
+    #[test]
+    fn a_vertex_no_edge_chain_joins_to_the_roots_is_found() {
+        let g = G2o::parse(
+            "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 2 3 1 0 0 1 0 0 1 0 1\nEDGE_SE2 3 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 4 5 1 0 0 1 0 0 1 0 1\n",
+        )
+        .expect("parse");
+        assert_eq!(g.first_unjoined(&[0]), Some(4));
+        assert_eq!(g.first_unjoined(&[0, 5]), None);
     }
 }

@@ -183,5 +183,12 @@ pub fn run(file: &Path, out: &mut dyn Write) -> Result<(), Error> {
         out,
         "{frames} frames ({malformed} malformed), {unreadable} unreadable lines, {fd} CAN FD lines"
     )?;
+    if frames == 0 {
+        return Err(format!(
+            "no CAN frame in {} (a candump log: `(time) iface id#data` lines)",
+            file.display()
+        )
+        .into());
+    }
     Ok(())
 }

@@ -168,5 +168,8 @@ pub fn run(file: &Path, as_json: bool, out: &mut dyn Write) -> Result<(), Error>
     } else {
         writeln!(out, "{summary}")?;
     }
+    if c.frames == 0 {
+        return Err(format!("no Xbus frame in {}: {summary}", file.display()).into());
+    }
     Ok(())
 }

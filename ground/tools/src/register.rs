@@ -7,6 +7,7 @@ use std::time::Instant;
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
+use speleo_slam::registration::covariance::DEFAULT_NEIGHBORS;
 use speleo_slam::registration::{align, GicpParams, PreparedCloud};
 
 use crate::Error;
@@ -57,9 +58,11 @@ pub fn register(
     s.prepare(src.iter().copied(), voxel_m);
     t.prepare(tgt.iter().copied(), voxel_m);
     let prepared = Instant::now();
-    if s.is_empty() || t.is_empty() {
+    // Each point's covariance is fitted to its nearest neighbours: fewer
+    // points than that give no surface to align, only a fit to anything.
+    if s.len() < DEFAULT_NEIGHBORS || t.len() < DEFAULT_NEIGHBORS {
         return Err(format!(
-            "nothing to register: {} usable source and {} usable target points",
+            "too few points to register: {} usable source and {} usable target points after voxels of {voxel_m} m (GICP needs at least {DEFAULT_NEIGHBORS} in each; a smaller --voxel keeps more)",
             s.len(),
             t.len()
         )

@@ -109,6 +109,12 @@ impl Calibration {
             path: path.display().to_string(),
             source,
         })?;
+        if text.trim().is_empty() {
+            return Err(CalibError::Format(format!(
+                "{}: the calibration file is empty",
+                path.display()
+            )));
+        }
         let ext = crate::extension_of(path);
         let r = match ext.as_str() {
             "xml" => Self::from_veloview_xml(&text),

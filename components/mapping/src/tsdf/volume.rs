@@ -152,8 +152,9 @@ pub struct TsdfVolume {
 
 impl TsdfVolume {
     /// Takes all the memory the volume will ever use. Fails only on a
-    /// non-positive voxel size or a negative or huge truncation; a zero
-    /// pool gives a volume that drops (and counts) every update.
+    /// non-positive voxel size, a negative or huge truncation or a pool
+    /// over [`MAX_BLOCKS`]; a zero pool gives a volume that drops (and
+    /// counts) every update.
     pub fn new(params: TsdfParams) -> Result<TsdfVolume, ParamsError> {
         if !(params.voxel_size_m.is_finite() && params.voxel_size_m > 0.0) {
             return Err(ParamsError::NotPositive("voxel_size_m"));
@@ -165,12 +166,15 @@ impl TsdfVolume {
         if t > MAX_TRUNCATION_VOXELS {
             return Err(ParamsError::TooLarge("truncation_voxels"));
         }
+        if params.max_blocks > MAX_BLOCKS {
+            return Err(ParamsError::TooLarge("max_blocks"));
+        }
         let truncation = t * params.voxel_size_m;
         Ok(TsdfVolume {
             voxel: params.voxel_size_m,
             inv_voxel: 1.0 / params.voxel_size_m,
             truncation,
-            store: BlockStore::new(params.max_blocks.min(MAX_BLOCKS)),
+            store: BlockStore::new(params.max_blocks),
             totals: IntegrateStats::default(),
             params,
         })

@@ -6,9 +6,21 @@ use std::process::ExitCode;
 use crate::args::MeshArgs;
 use crate::Error;
 
+/// The most blocks `mesh` takes: 4 GiB of pool.
+const MESH_MAX_BLOCKS: usize = 1 << 20;
+
 /// `speleo mesh`: from PLY scans with KITTI poses, or from a recording's
 /// keyframes (the recording is run through the drivers and SLAM again).
 pub fn mesh(a: MeshArgs, progress: bool) -> Result<ExitCode, Error> {
+    // The pool is taken whole before the first scan (4 KiB a block).
+    if !(1..=MESH_MAX_BLOCKS).contains(&a.max_blocks) {
+        return Err(format!(
+            "--max-blocks {}: must be 1..={MESH_MAX_BLOCKS} (4 KiB a block, {} GiB at most)",
+            a.max_blocks,
+            MESH_MAX_BLOCKS * 4096 >> 30
+        )
+        .into());
+    }
     let params = speleo_mapping::tsdf::TsdfParams {
         voxel_size_m: a.voxel,
         truncation_voxels: a.trunc,

@@ -21,10 +21,21 @@ pub fn register(a: RegisterArgs) -> Result<ExitCode, Error> {
     if let Some(path) = &a.report {
         speleo_firmware::report::write_json(path, &r)?;
     }
-    Ok(ExitCode::SUCCESS)
+    // A transform that did not converge is printed for inspection but is
+    // no answer: scripts see it in the status.
+    Ok(if r.converged {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "error: GICP did not converge in {} iterations",
+            r.iterations
+        );
+        ExitCode::from(1)
+    })
 }
 
 pub fn plan(a: PlanArgs) -> Result<ExitCode, Error> {
+    check_search(&a)?;
     let planned = if let Some(world) = &a.world {
         let (Some(start), Some(goal)) = (&a.start, &a.goal) else {
             return Err("--world needs --start and --goal".into());
@@ -82,4 +93,19 @@ pub fn primitives(a: PrimitivesArgs) -> Result<ExitCode, Error> {
         a.out.display()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// ARA*'s settings as the command line gives them: an inflation below 1
+/// would make the search inadmissible, a zero quantum would never stop it.
+fn check_search(a: &PlanArgs) -> Result<(), Error> {
+    if !(a.eps.is_finite() && a.eps >= 1.0) {
+        return Err(format!("--eps {}: must be a finite number >= 1", a.eps).into());
+    }
+    if !(a.eps_step.is_finite() && a.eps_step > 0.0) {
+        return Err(format!("--eps-step {}: must be a finite number > 0", a.eps_step).into());
+    }
+    if a.quantum == 0 {
+        return Err("--quantum 0: must be at least 1 expansion".into());
+    }
+    Ok(())
 }

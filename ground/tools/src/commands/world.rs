@@ -1,5 +1,6 @@
 //! `speleo world`: a world's mesh exported, its named poses listed.
 
+use std::io::Write;
 use std::process::ExitCode;
 
 use crate::args::{WorldExportArgs, WorldWaypointsArgs};
@@ -11,7 +12,7 @@ pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
         .map_err(|e| format!("cannot create {}: {e}", a.out.display()))?;
     let mut out = std::io::BufWriter::new(f);
     w.mesh.write_ply(&mut out)?;
-    std::io::Write::flush(&mut out)?;
+    out.flush()?;
     let (lo, hi) = w.mesh.bounds();
     println!(
         "{}: {} triangles, {} vertices, bounds ({:.1}, {:.1}, {:.1}) to ({:.1}, {:.1}, {:.1}) m, \
@@ -36,14 +37,19 @@ pub fn world_export(a: WorldExportArgs) -> Result<ExitCode, Error> {
 
 pub fn world_waypoints(a: WorldWaypointsArgs) -> Result<ExitCode, Error> {
     let w = speleo_twin::world::World::build(&a.world, a.seed)?;
+    // Written, not printed: a reader that goes away (`| head`) ends the
+    // listing with an error the caller takes for success, not a panic.
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     for (name, p) in speleo_twin::world::waypoints::waypoints(&w) {
-        println!(
+        writeln!(
+            out,
             "{name:10} {:8.2} {:8.2} {:7.2} {:7.1}",
             p[0],
             p[1],
             p[2],
             p[3].to_degrees()
-        );
+        )?;
     }
+    out.flush()?;
     Ok(ExitCode::SUCCESS)
 }
