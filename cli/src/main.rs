@@ -108,12 +108,15 @@ pub struct SimCommand {
 
 /// `speleo sim`: the mission, then its plot when asked.
 fn sim(a: SimCommand, progress: bool) -> Result<ExitCode, speleo_tools::Error> {
+    if let Some(p) = &a.plot {
+        speleo_firmware::output_paths::check_file(p, "--plot")?;
+    }
     let r = flight::sim_mission(a.mission, progress)?;
     if let Some(path) = &a.plot {
         speleo_tools::plot::write_plot(path, &speleo_tools::plot::of_mission(&r))?;
     }
     flight::print_summary(&r);
-    Ok(ExitCode::SUCCESS)
+    Ok(flight::finished_status())
 }
 
 fn init_logging(verbose: u8) {
@@ -136,6 +139,16 @@ fn main() -> ExitCode {
     init_logging(cli.verbose);
     speleo_scheduler::accounting::trace_allocations_over(cli.trace_allocations_over);
     let progress = !cli.no_progress;
+    // The commands that run missions end them cleanly on Ctrl-C or SIGTERM.
+    if matches!(
+        cli.command,
+        Command::Sim(_) | Command::Replay(_) | Command::Run(_) | Command::Campaign(_)
+    ) {
+        if let Err(e) = speleo_firmware::signals::install() {
+            eprintln!("error: cannot catch Ctrl-C and SIGTERM: {e}");
+            return ExitCode::from(2);
+        }
+    }
     let result = match cli.command {
         Command::Sim(a) => sim(a, progress),
         Command::Replay(a) => flight::replay(a, progress),

@@ -6,7 +6,6 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -90,7 +89,7 @@ impl Session {
             Length::Frames(frames),
             virtual_enforcement(cfg),
             None,
-            &AtomicBool::new(false),
+            crate::signals::stop_flag(),
             &mut hw,
             clock,
             progress,
@@ -315,12 +314,29 @@ fn write_report(
 /// summary printed.
 pub fn sim(a: SimArgs, progress: bool) -> Result<ExitCode, Error> {
     print_summary(&sim_mission(a, progress)?);
-    Ok(ExitCode::SUCCESS)
+    Ok(finished_status())
+}
+
+/// Success, or [`signals::INTERRUPTED_STATUS`](crate::signals) when a
+/// signal cut the run short (its outputs are written all the same).
+pub fn finished_status() -> ExitCode {
+    if crate::signals::interrupted() {
+        ExitCode::from(crate::signals::INTERRUPTED_STATUS)
+    } else {
+        ExitCode::SUCCESS
+    }
 }
 
 /// A simulated mission from the command's arguments, its report and
 /// trajectory written: its result, for drawing or judging.
 pub fn sim_mission(a: SimArgs, progress: bool) -> Result<MissionResult, Error> {
+    crate::output_paths::check(&a.out)?;
+    if let Some(p) = &a.trajectory {
+        crate::output_paths::check_file(p, "--trajectory")?;
+    }
+    if let Some(p) = &a.dump_validations {
+        crate::output_paths::check_folder(p, "--dump-validations")?;
+    }
     let mut cfg = match &a.config {
         Some(p) => Config::load(p)?,
         None => Config::default(),
@@ -406,12 +422,19 @@ pub fn simulate(cfg: &mut Config, out: &Outputs, progress: bool) -> Result<Missi
         Length::Frames(frames),
         virtual_enforcement(cfg),
         Some(truth),
-        &AtomicBool::new(false),
+        crate::signals::stop_flag(),
         &mut hw,
         clock,
         progress,
     )?;
     drop(hw);
+    if crate::signals::interrupted() {
+        tracing::warn!(
+            "interrupted at {:.1} s of mission (frame {} of {frames}): finishing the maps, the report and the figures of what was done",
+            result.frames as f64 * cfg.executive.minor_frame_us as f64 * 1e-6,
+            result.frames
+        );
+    }
     finish_maps(cfg, out, &mut result)?;
     let strikes = twin.strikes();
     if strikes.wrecked {
@@ -571,6 +594,7 @@ fn route_in_odometry_frame(
 }
 
 pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
+    crate::output_paths::check(&a.out)?;
     let r = replay_recording(&a.log, &a.out, progress)?;
     write_report(
         a.out.report.as_deref(),
@@ -591,6 +615,15 @@ pub fn replay(a: ReplayArgs, progress: bool) -> Result<ExitCode, Error> {
         );
         print_summary(&r.result);
         return Ok(ExitCode::SUCCESS);
+    }
+    if crate::signals::interrupted() {
+        println!(
+            "interrupted at frame {} of {}: {}",
+            r.result.frames,
+            r.last + 1,
+            r.divergence.as_deref().unwrap_or("identical up to there")
+        );
+        return Ok(finished_status());
     }
     match r.divergence {
         None => {
@@ -675,6 +708,7 @@ pub fn replay_recording(
 }
 
 pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
+    crate::output_paths::check(&a.out)?;
     let cfg = Config::load(&a.config)?;
     schedule_table::build(&cfg)?;
     let mut hw = speleo_hal::real::RealHardware::open(&speleo_hal::real::DeviceSettings {
@@ -693,10 +727,9 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
         .unwrap_or(0);
     let meta = run_metadata(&cfg, "run", epoch_ns);
     let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, None, false)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register(sig, Arc::clone(&stop))?;
-    }
+    // Without a duration a signal is how a run ends; with one, a signal
+    // cuts it short.
+    crate::signals::install()?;
     let length = match a.duration {
         Some(d) => Length::Frames(frames_for(&cfg, d)),
         None => Length::UntilStopped,
@@ -706,7 +739,7 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
         length,
         Enforcement::Enforce,
         None,
-        &stop,
+        crate::signals::stop_flag(),
         &mut hw,
         MonotonicClock::new(cfg.executive.minor_frame_us),
         progress,
@@ -714,7 +747,11 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     finish_maps(&cfg, &a.out, &mut result)?;
     write_report(a.out.report.as_deref(), "run", &result, None)?;
     print_summary(&result);
-    Ok(ExitCode::SUCCESS)
+    Ok(if a.duration.is_some() {
+        finished_status()
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 /// A recording run through the drivers, SLAM and the maps (as `replay`

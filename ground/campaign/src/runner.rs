@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -15,6 +15,8 @@ use crate::outcome::{host_name, tail, Outcome, Status};
 pub const VALIDATIONS: &str = "validations";
 /// Lines of a failed case's log kept in its outcome.
 const LOG_TAIL_LINES: usize = 20;
+/// The status of a `speleo sim` a signal cut short.
+const INTERRUPTED_STATUS: u8 = 130;
 /// How often a running case is looked at.
 const POLL: Duration = Duration::from_millis(50);
 
@@ -39,7 +41,13 @@ pub struct Program {
     /// folder's [`VALIDATIONS`] (`speleo sim --dump-validations`), for
     /// `speleo campaign validations` to replay on the true worlds.
     pub dump_validations: bool,
+    /// Set when the campaign is to stop (a signal): no case is started
+    /// after it, and the running ones are asked to end (SIGTERM), which
+    /// leaves them without an outcome, to run again.
+    pub stop: &'static AtomicBool,
 }
+
+static NEVER: AtomicBool = AtomicBool::new(false);
 
 impl Program {
     /// The running binary.
@@ -49,6 +57,7 @@ impl Program {
             exe,
             leading_args: Vec::new(),
             dump_validations: false,
+            stop: &NEVER,
         })
     }
 }
@@ -155,15 +164,16 @@ pub fn execute(cd: &Path, case: &Case, p: &Program, timeout_s: f64) -> Result<Ou
     let mut child = cmd
         .spawn()
         .map_err(|e| format!("case {}: cannot start {}: {e}", case.id, p.exe.display()))?;
-    let (status, timed_out) = wait(&mut child, limit)?;
+    let (status, timed_out) = wait(&mut child, limit, p.stop)?;
     let wall_time_s = started.elapsed().as_secs_f64();
     let signal = std::os::unix::process::ExitStatusExt::signal(&status);
     // A signal that stops a process from outside, as against one a
     // process raises on itself by crashing (SIGSEGV, SIGABRT...).
+    // A case that ended itself on a signal's request says so by its status.
     let from_outside = matches!(
         signal,
         Some(libc::SIGKILL | libc::SIGTERM | libc::SIGINT | libc::SIGHUP)
-    );
+    ) || status.code() == Some(i32::from(INTERRUPTED_STATUS));
     let status_kind = if timed_out {
         Status::Hung
     } else if from_outside {
@@ -188,11 +198,25 @@ pub fn execute(cd: &Path, case: &Case, p: &Program, timeout_s: f64) -> Result<Ou
 }
 
 /// Waits for the child, killing it past `limit`; whether it was killed so.
-fn wait(child: &mut Child, limit: Duration) -> Result<(ExitStatus, bool), String> {
+fn wait(
+    child: &mut Child,
+    limit: Duration,
+    stop: &AtomicBool,
+) -> Result<(ExitStatus, bool), String> {
     let started = Instant::now();
+    let mut asked_to_stop = false;
     loop {
         if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
             return Ok((s, false));
+        }
+        // Out of the terminal's process group, the case did not see the
+        // Ctrl-C: it is passed on, once, and the case ends at its next frame.
+        if !asked_to_stop && stop.load(Ordering::Relaxed) {
+            asked_to_stop = true;
+            // SAFETY: kill(2) on the pid of a child not yet reaped.
+            unsafe {
+                libc::kill(child.id() as libc::pid_t, libc::SIGTERM);
+            }
         }
         if started.elapsed() >= limit {
             let _ = child.kill();
@@ -271,6 +295,9 @@ pub fn run_all(dir: &Path, p: &Program, jobs: usize, progress: bool) -> Result<R
             let tx = tx.clone();
             let (m, pending, next) = (&m, &pending, &next);
             s.spawn(move || loop {
+                if p.stop.load(Ordering::Relaxed) {
+                    break;
+                }
                 let i = next.fetch_add(1, Ordering::Relaxed);
                 let Some(&id) = pending.get(i) else { break };
                 let r = run_case(dir, m, id, p);

@@ -109,6 +109,7 @@ fn resolve_mesh_paths(m: &mut Matrix, base: &Path) {
 fn run(a: CampaignRunArgs, progress: bool) -> Result<ExitCode, Error> {
     let program = Program {
         dump_validations: a.dump_validations,
+        stop: speleo_firmware::signals::stop_flag(),
         ..Program::this()?
     };
     let m = Manifest::load(&a.dir)?;
@@ -176,7 +177,13 @@ fn run(a: CampaignRunArgs, progress: bool) -> Result<ExitCode, Error> {
         started.elapsed().as_secs_f64(),
         a.dir.display()
     );
-    Ok(ExitCode::SUCCESS)
+    if speleo_firmware::signals::interrupted() {
+        println!(
+            "interrupted: the cases cut short have no outcome; `speleo campaign run {}` runs them and the rest",
+            a.dir.display()
+        );
+    }
+    Ok(speleo_firmware::commands::finished_status())
 }
 
 fn report(a: CampaignReportArgs) -> Result<ExitCode, Error> {
