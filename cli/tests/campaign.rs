@@ -397,3 +397,47 @@ fn a_campaigns_validations_replay_on_the_true_world() {
         "{out}"
     );
 }
+
+#[test]
+fn ctrl_c_stops_a_campaign_leaving_the_cases_it_cut_short_to_run_again() {
+    let t = tempfile::tempdir().unwrap();
+    // Two long missions, one at a time: the first is under way when the
+    // signal comes, the second never starts.
+    let dir = planned(
+        t.path(),
+        "name = \"long\"\n[[group]]\nworlds = [\"flat\"]\nnoise_seeds = [1, 2]\nduration_s = 600\n",
+    );
+    let d = dir.to_str().unwrap();
+    let runner = Command::new(env!("CARGO_BIN_EXE_speleo"))
+        .args(["campaign", "run", d, "--jobs", "1", "--no-progress"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // A case's lock is taken as it starts.
+    let lock = dir.join("cases/0000/lock");
+    let started = Instant::now();
+    while !lock.exists() {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no case began"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let sent = Command::new("kill")
+        .args(["-INT", &runner.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let out = runner.wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", text(&out.stderr));
+    assert!(
+        text(&out.stdout).contains("interrupted"),
+        "{}",
+        text(&out.stdout)
+    );
+    assert!(started.elapsed() < Duration::from_secs(300));
+    // Neither case has an outcome: the next run starts both.
+    assert!(outcomes(&dir).is_empty(), "{:?}", outcomes(&dir));
+    assert_eq!(processes_naming(d), 0, "orphaned cases");
+}
