@@ -10,7 +10,7 @@ use speleo_firmware::args::{ReplayArgs, RunArgs, SimArgs};
 use speleo_firmware::commands as flight;
 use speleo_scheduler::accounting::AccountingAllocator;
 use speleo_tools::args::*;
-use speleo_tools::commands::{decode, mesh, solvers, validate, world};
+use speleo_tools::commands::{decode, info, mesh, solvers, validate, world};
 
 // Every allocation is attributed to the task running on the executive's thread.
 #[global_allocator]
@@ -51,6 +51,11 @@ pub enum Command {
     /// Run on the real rover: monotonic clock, real devices, overrun policies
     /// enforced. Stops on Ctrl-C or after --duration.
     Run(RunArgs),
+    /// What a recording (MCAP) holds, as `ros2 bag info` tells it: its
+    /// span, each topic's type, encoding, count and rate, its chunks and
+    /// their compression, whether it was finished or cut short, and the
+    /// run that wrote it.
+    Info(InfoArgs),
     /// Import a LiDAR capture (pcap: datagrams to UDP 2368 and 8308) as a
     /// recording that `speleo replay` runs through the drivers.
     Pcap2mcap(Pcap2mcapArgs),
@@ -153,6 +158,7 @@ fn main() -> ExitCode {
         Command::Sim(a) => sim(a, progress),
         Command::Replay(a) => flight::replay(a, progress),
         Command::Run(a) => flight::run(a, progress),
+        Command::Info(a) => info::info(a),
         Command::Pcap2mcap(a) => decode::pcap2mcap(a),
         Command::Decode(d) => decode::decode(d),
         Command::World(WorldCommand::Export(a)) => world::world_export(a),

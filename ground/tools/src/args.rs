@@ -312,6 +312,18 @@ pub struct WorldExportArgs {
 }
 
 #[derive(Args, Debug)]
+pub struct InfoArgs {
+    #[arg(value_name = "REC.mcap")]
+    pub file: PathBuf,
+    /// Print the figures as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// Print the configuration the run recorded (TOML) after the figures.
+    #[arg(long)]
+    pub config: bool,
+}
+
+#[derive(Args, Debug)]
 pub struct Pcap2mcapArgs {
     #[arg(value_name = "CAPTURE.pcap")]
     pub capture: PathBuf,

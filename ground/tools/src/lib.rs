@@ -11,6 +11,7 @@ pub mod decode_can;
 pub mod decode_hdl32e;
 pub mod decode_xbus;
 pub mod g2o;
+pub mod info;
 pub mod mesh;
 pub mod pcap2mcap;
 pub mod plan;

@@ -2,6 +2,7 @@
 //! arguments, runs the tool, prints its figures and writes its report.
 
 pub mod decode;
+pub mod info;
 pub mod mesh;
 pub mod solvers;
 pub mod validate;
