@@ -37,20 +37,32 @@ fn info_tells_topics_counts_and_whether_the_recording_was_finished() {
             .and_then(|t| t["messages"].as_u64())
             .unwrap_or(0)
     };
-    // Ten LiDAR revolutions a second for about 3 s.
-    assert!((25..=31).contains(&count("/lidar/points")), "{v}");
+    // The IMU's 100 samples a second for 3 s, and its rate.
+    assert_eq!(count("/raw/imu"), 300, "{v}");
+    let imu = topics
+        .iter()
+        .find(|t| t["topic"] == "/raw/imu")
+        .expect("imu");
+    let hz = imu["rate_hz"].as_f64().expect("rate");
+    assert!((95.0..=105.0).contains(&hz), "{hz}");
     let sum: u64 = topics.iter().filter_map(|t| t["messages"].as_u64()).sum();
     assert_eq!(v["messages"].as_u64(), Some(sum));
     let d_s = v["duration_s"].as_f64().expect("duration");
     assert!(d_s > 2.5 && d_s <= 3.0, "{d_s}");
     assert_eq!(v["run"]["mode"], "sim");
-    assert!(v["config"].as_str().is_some_and(|c| c.contains("[sim]")), "{v}");
+    assert!(
+        v["config"].as_str().is_some_and(|c| c.contains("[sim]")),
+        "{v}"
+    );
     assert!(v["outcome"]["output_hash"].is_string(), "{v}");
 
     let out = speleo(&["info", r]);
     let o = text(&out.stdout);
     assert!(o.contains("finished:    yes"), "{o}");
-    assert!(o.contains("/lidar/points"), "{o}");
+    assert!(
+        o.contains("/lidar/points") && o.contains("sensor_msgs/msg/PointCloud2"),
+        "{o}"
+    );
 
     // Cut in the middle, as a killed writer leaves it: read to the break.
     let bytes = std::fs::read(&rec).expect("read");

@@ -89,8 +89,9 @@ pub fn info(path: &Path) -> Result<RecordingInfo, Error> {
     };
     header(&mut file, &mut out).map_err(|e| format!("{name}: {e}"))?;
     match summary(&mut file).map_err(|e| format!("{name}: {e}"))? {
-        Some(s) if s.stats.is_some() => from_summary(&mut file, &s, &mut out)
-            .map_err(|e| format!("{name}: {e}"))?,
+        Some(s) if s.stats.is_some() => {
+            from_summary(&mut file, &s, &mut out).map_err(|e| format!("{name}: {e}"))?
+        }
         _ => scan(&mut file, &mut out).map_err(|e| format!("{name}: {e}"))?,
     }
     out.duration_s = out.end_ns.saturating_sub(out.start_ns) as f64 * 1e-9;
@@ -149,11 +150,7 @@ fn summary(file: &mut File) -> Result<Option<mcap::Summary>, String> {
 }
 
 /// The figures from a finished file's summary section.
-fn from_summary(
-    file: &mut File,
-    s: &mcap::Summary,
-    out: &mut RecordingInfo,
-) -> Result<(), String> {
+fn from_summary(file: &mut File, s: &mcap::Summary, out: &mut RecordingInfo) -> Result<(), String> {
     out.summary = true;
     out.indexed = !s.chunk_indexes.is_empty();
     if let Some(st) = &s.stats {
@@ -193,7 +190,11 @@ fn from_summary(
             .and_then(|_| file.read_exact(&mut buf))
             .map_err(|e| format!("metadata {}: {e}", mi.name))?;
         if buf.len() < 9 {
-            return Err(format!("metadata {}: a record of {} bytes", mi.name, buf.len()));
+            return Err(format!(
+                "metadata {}: a record of {} bytes",
+                mi.name,
+                buf.len()
+            ));
         }
         match mcap::parse_record(buf[0], &buf[9..]) {
             Ok(Record::Metadata(m)) => metadata(m, out),
@@ -233,7 +234,7 @@ fn scan(file: &mut File, out: &mut RecordingInfo) -> Result<(), String> {
                 break;
             }
         };
-        let mut inner = Vec::new();
+        let mut inner: Vec<Record<'static>> = Vec::new();
         match record {
             Record::Chunk { header, data } => {
                 out.chunks += 1;
@@ -245,7 +246,10 @@ fn scan(file: &mut File, out: &mut RecordingInfo) -> Result<(), String> {
                 let chunk = mcap::read::ChunkReader::new(header, &data)
                     .map_err(|e| format!("chunk {}: {e}", out.chunks))?;
                 for r in chunk {
-                    inner.push(r.map_err(|e| format!("chunk {}: {e}", out.chunks))?);
+                    inner.push(
+                        r.map_err(|e| format!("chunk {}: {e}", out.chunks))?
+                            .into_owned(),
+                    );
                 }
             }
             Record::ChunkIndex(_) => out.indexed = true,
@@ -347,8 +351,16 @@ impl std::fmt::Display for RecordingInfo {
         writeln!(
             f,
             "profile:     {} (written by {})",
-            if self.profile.is_empty() { "none" } else { &self.profile },
-            if self.library.is_empty() { "?" } else { &self.library }
+            if self.profile.is_empty() {
+                "none"
+            } else {
+                &self.profile
+            },
+            if self.library.is_empty() {
+                "?"
+            } else {
+                &self.library
+            }
         )?;
         writeln!(f, "duration:    {:.3} s", self.duration_s)?;
         if self.messages > 0 {

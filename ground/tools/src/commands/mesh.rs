@@ -17,7 +17,7 @@ pub fn mesh(a: MeshArgs, progress: bool) -> Result<ExitCode, Error> {
         return Err(format!(
             "--max-blocks {}: must be 1..={MESH_MAX_BLOCKS} (4 KiB a block, {} GiB at most)",
             a.max_blocks,
-            MESH_MAX_BLOCKS * 4096 >> 30
+            (MESH_MAX_BLOCKS * 4096) >> 30
         )
         .into());
     }
