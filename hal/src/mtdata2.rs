@@ -158,6 +158,69 @@ pub struct GnssPvt {
 
 pub const GNSS_PVT_LEN: usize = 94;
 
+/// The satellites the MTi's receiver tracks (0x7020): the time of week,
+/// then 4 bytes a satellite.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GnssSatInfo<'a> {
+    /// GNSS time of week, ms.
+    pub itow: u32,
+    records: &'a [u8],
+}
+
+/// One satellite of a [`GnssSatInfo`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SatInfo {
+    /// The constellation (u-blox numbering: 0 GPS, 1 SBAS, 2 Galileo,
+    /// 3 BeiDou, 5 QZSS, 6 GLONASS).
+    pub gnss_id: u8,
+    pub sv_id: u8,
+    /// Carrier to noise ratio, dBHz.
+    pub cno: u8,
+    pub flags: u8,
+}
+
+impl SatInfo {
+    /// Signal quality, 0 (no signal) to 7 (code and carrier locked).
+    pub fn quality(&self) -> u8 {
+        self.flags & 0x07
+    }
+
+    /// Used for navigation.
+    pub fn used(&self) -> bool {
+        self.flags & 0x08 != 0
+    }
+
+    /// Health: 0 unknown, 1 healthy, 2 unhealthy.
+    pub fn health(&self) -> u8 {
+        (self.flags >> 4) & 0x03
+    }
+
+    /// Differential corrections are available for it.
+    pub fn corrected(&self) -> bool {
+        self.flags & 0x40 != 0
+    }
+}
+
+impl<'a> GnssSatInfo<'a> {
+    /// Number of satellites reported.
+    pub fn len(&self) -> usize {
+        self.records.len() / 4
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    pub fn satellites(&self) -> impl Iterator<Item = SatInfo> + 'a {
+        self.records.chunks_exact(4).map(|r| SatInfo {
+            gnss_id: r[0],
+            sv_id: r[1],
+            cno: r[2],
+            flags: r[3],
+        })
+    }
+}
+
 /// What an item holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Item<'a> {
@@ -177,11 +240,7 @@ pub enum Item<'a> {
         len: usize,
     },
     GnssPvt(GnssPvt),
-    /// Known identifier whose content Speleo keeps raw (GNSS satellite info).
-    Raw {
-        id: u16,
-        data: &'a [u8],
-    },
+    GnssSatInfo(GnssSatInfo<'a>),
     /// Unknown identifier, skipped by size.
     Unknown {
         id: u16,
@@ -347,7 +406,13 @@ pub fn item(id: u16, d: &[u8]) -> Item<'_> {
         0xE020 if d.len() == 4 => return Item::StatusWord(be32(d, 0)),
         0x3010 if d.len() == 4 => return Item::BaroPressure(be32(d, 0)),
         0x7010 if d.len() == GNSS_PVT_LEN => return Item::GnssPvt(gnss_pvt(d)),
-        0x7020 => return Item::Raw { id, data: d },
+        // Its size is its count's: 8 bytes, then 4 a satellite.
+        0x7020 if d.len() >= 8 && d.len() == 8 + 4 * usize::from(d[4]) => {
+            return Item::GnssSatInfo(GnssSatInfo {
+                itow: be32(d, 0),
+                records: &d[8..],
+            })
+        }
         _ => {}
     }
     let Some((kind, n)) = Kind::of_group(id & 0xFFF0) else {
@@ -468,5 +533,39 @@ mod tests {
         assert_eq!(v.len(), 2);
         assert_eq!(v[0], Ok((0x1020, Item::PacketCounter(5))));
         assert_eq!(v[1], Err(Truncated { offset: 5 }));
+    }
+
+    #[test]
+    fn satellite_info_is_read_by_its_count_and_refused_at_another_size() {
+        // iTOW 123456 ms, 2 satellites: GPS 7 at 42 dBHz, code and carrier
+        // locked, used, healthy; GLONASS 3 at 18 dBHz, searching.
+        let mut d = vec![0x00, 0x01, 0xE2, 0x40, 2, 0, 0, 0];
+        d.extend_from_slice(&[0, 7, 42, 0x1F]);
+        d.extend_from_slice(&[6, 3, 18, 0x01]);
+        let Item::GnssSatInfo(s) = item(0x7020, &d) else {
+            panic!("{:?}", item(0x7020, &d));
+        };
+        assert_eq!(s.itow, 123_456);
+        let v: Vec<SatInfo> = s.satellites().collect();
+        assert_eq!(v.len(), 2);
+        assert_eq!((v[0].gnss_id, v[0].sv_id, v[0].cno), (0, 7, 42));
+        assert!(v[0].used() && v[0].quality() == 7 && v[0].health() == 1);
+        assert!(!v[1].used() && v[1].quality() == 1 && v[1].health() == 0);
+        // One satellite short of its count: skipped, never misread.
+        d.truncate(12);
+        assert_eq!(
+            item(0x7020, &d),
+            Item::Unknown {
+                id: 0x7020,
+                size: 12
+            }
+        );
+        assert_eq!(
+            item(0x7020, &d[..3]),
+            Item::Unknown {
+                id: 0x7020,
+                size: 3
+            }
+        );
     }
 }

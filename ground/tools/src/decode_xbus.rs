@@ -70,15 +70,41 @@ fn item_json(id: u16, item: &Item<'_>) -> (String, Value) {
             }
             (kind.name().into(), Value::Object(m))
         }
-        Item::GnssPvt(p) => (
-            "GNSSPVTData".into(),
-            json!({"itow": p.itow, "fix_type": p.fix_type, "num_sv": p.num_sv,
-                   "lat_deg": p.lat as f64 * 1e-7, "lon_deg": p.lon as f64 * 1e-7,
-                   "height_m": p.height as f64 * 1e-3, "h_acc_m": p.h_acc as f64 * 1e-3}),
+        Item::GnssPvt(p) => ("GNSSPVTData".into(), pvt_json(p)),
+        Item::GnssSatInfo(s) => (
+            "GNSSSatInfo".into(),
+            json!({"itow_ms": s.itow, "num_svs": s.len(),
+                   "satellites": s.satellites().map(|v| json!({
+                       "gnss_id": v.gnss_id, "sv_id": v.sv_id, "cno_dbhz": v.cno,
+                       "quality": v.quality(), "used": v.used(), "health": v.health(),
+                       "corrected": v.corrected()})).collect::<Vec<_>>()}),
         ),
-        Item::Raw { data, .. } => (format!("0x{id:04X}"), json!({"bytes": data.len()})),
         Item::Unknown { size, .. } => (format!("0x{id:04X}"), json!({"unknown_bytes": size})),
     }
+}
+
+/// Every field of a NAV-PVT record, in SI units and degrees (u-blox's
+/// scalings: 1e-7 deg, mm, mm/s, 1e-5 deg, 0.01 for the DOPs).
+fn pvt_json(p: &speleo_hal::mtdata2::GnssPvt) -> Value {
+    let (mm, deg7, deg5, dop) = (1e-3, 1e-7, 1e-5, 0.01);
+    json!({
+        "itow_ms": p.itow,
+        "date": format!("{:04}-{:02}-{:02}", p.year, p.month, p.day),
+        "time": format!("{:02}:{:02}:{:02}", p.hour, p.min, p.sec),
+        "valid": p.valid, "t_acc_ns": p.t_acc, "nano_ns": p.nano,
+        "fix_type": p.fix_type, "flags": p.flags, "num_sv": p.num_sv,
+        "lon_deg": f64::from(p.lon) * deg7, "lat_deg": f64::from(p.lat) * deg7,
+        "height_m": f64::from(p.height) * mm, "hmsl_m": f64::from(p.hmsl) * mm,
+        "h_acc_m": f64::from(p.h_acc) * mm, "v_acc_m": f64::from(p.v_acc) * mm,
+        "vel_n_mps": f64::from(p.vel_n) * mm, "vel_e_mps": f64::from(p.vel_e) * mm,
+        "vel_d_mps": f64::from(p.vel_d) * mm, "g_speed_mps": f64::from(p.g_speed) * mm,
+        "head_mot_deg": f64::from(p.head_mot) * deg5, "s_acc_mps": f64::from(p.s_acc) * mm,
+        "head_acc_deg": f64::from(p.head_acc) * deg5, "head_veh_deg": f64::from(p.head_veh) * deg5,
+        "gdop": f64::from(p.gdop) * dop, "pdop": f64::from(p.pdop) * dop,
+        "tdop": f64::from(p.tdop) * dop, "vdop": f64::from(p.vdop) * dop,
+        "hdop": f64::from(p.hdop) * dop, "ndop": f64::from(p.ndop) * dop,
+        "edop": f64::from(p.edop) * dop,
+    })
 }
 
 pub fn run(file: &Path, as_json: bool, out: &mut dyn Write) -> Result<(), Error> {
