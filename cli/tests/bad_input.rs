@@ -151,8 +151,8 @@ fn captures_and_logs_with_nothing_to_decode_say_so() {
 
 #[test]
 fn a_listing_whose_reader_goes_away_ends_quietly() {
-    // `speleo world waypoints lava-tube | head -0`: the pipe is closed
-    // before the first line is written.
+    // A listing piped into `head -0`: the pipe is closed before the first
+    // line is written.
     let mut child = Command::new(env!("CARGO_BIN_EXE_speleo"))
         .args(["world", "waypoints", "short-tube"])
         .stdout(Stdio::piped())

@@ -102,10 +102,10 @@ impl Navigator {
         ex.counters.goals_unreachable += 1;
         let at = self.query.order[self.query.tried].1;
         // The way to a goal may leave the window (from the far side of a
-        // garage level, the way onto the ramp whose top was the goal): a
-        // search that ran into the window's border proves nothing until the
-        // window is as large as it gets. One that never met the border
-        // would search the same states in a larger window, and fail again.
+        // level, the way onto a ramp whose top is the goal): a search that
+        // ran into the window's border proves nothing until the window is
+        // as large as it gets. One that never met the border would search
+        // the same states in a larger window, and fail again.
         let proven = self.window_half_m >= self.window_max_half_m || !self.lat.met_window_edge();
         if ex.phase() == ExplorerPhase::Exploring && proven {
             ex.explorer.reject([at[0], at[1]]);
