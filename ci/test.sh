@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # The project's test command (README.md): format check, clippy with warnings
 # denied, every test of the workspace, the end-to-end exploration in release,
-# a tiny campaign through a real one-node Slurm cluster, then each fuzz target for a bounded
-# time (SPELEO_FUZZ_SECONDS, default 15; 0 skips). Needs only a Rust
-# toolchain with rustfmt and clippy; everything else is fetched by cargo.
+# a recording read by the ROS 2 Python readers (rosbags, mcap-ros2-support)
+# and stopped by a real SIGINT, a tiny campaign through a real one-node Slurm
+# cluster, then each fuzz target for a bounded time (SPELEO_FUZZ_SECONDS,
+# default 15; 0 skips). Needs a Rust toolchain with rustfmt and clippy and
+# Python 3 with venv; everything else is fetched by cargo and pip.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # A clean CI build need not keep incremental state, which only costs disk.
@@ -28,8 +30,10 @@ cargo test --workspace --locked
 cargo clean --profile dev
 echo "== the autonomous mission end to end (release: minutes, not the debug build's hour)"
 cargo test --release -p speleo-tests --test exploration --locked -- --ignored
-echo "== a campaign on a one-node Slurm cluster (installs slurm-wlm and munge)"
 cargo build --release --locked -p speleo-cli
+echo "== recordings as ROS 2 tools read them"
+bash ci/ros2-check.sh
+echo "== a campaign on a one-node Slurm cluster (installs slurm-wlm and munge)"
 bash ci/slurm-campaign.sh
 echo "== fuzz targets"
 bash ci/fuzz.sh

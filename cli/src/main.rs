@@ -51,6 +51,18 @@ pub enum Command {
     /// Run on the real rover: monotonic clock, real devices, overrun policies
     /// enforced. Stops on Ctrl-C or after --duration.
     Run(RunArgs),
+    /// The rover's hardware twin in real time on the real wires, for a
+    /// hardware-in-the-loop bench: the world and the physics rover, the
+    /// HDL-32E on UDP, the MTi on a serial line (a pseudo-terminal) and the
+    /// drives behind an slcan adapter (another), for `speleo run` to drive.
+    /// Prints where its ports are, then runs until Ctrl-C or --duration.
+    Twin(TwinArgs),
+    /// A hardware-in-the-loop bench in one command: starts `speleo twin`,
+    /// then `speleo run` wired to it, stops both with Ctrl-C after
+    /// --duration (or when the mission ends), and prints their reports side
+    /// by side: the rover's pose error against the twin's truth, distance,
+    /// coverage and timing. Exits with status 2 unless both exit 0.
+    Hil(HilArgs),
     /// What a recording (MCAP) holds, as `ros2 bag info` tells it: its
     /// span, each topic's type, encoding, count and rate, its chunks and
     /// their compression, whether it was finished or cut short, and the
@@ -106,8 +118,9 @@ pub struct SimCommand {
     #[command(flatten)]
     pub mission: SimArgs,
     /// Draw the explored map with the rover's track, from above and from
-    /// the side, as a PNG.
-    #[arg(long, value_name = "OUT.png")]
+    /// the side, with axes in metres, a legend and a title, as a PNG or an
+    /// SVG (by the extension).
+    #[arg(long, value_name = "OUT.png|OUT.svg")]
     pub plot: Option<PathBuf>,
 }
 
@@ -115,10 +128,20 @@ pub struct SimCommand {
 fn sim(a: SimCommand, progress: bool) -> Result<ExitCode, speleo_tools::Error> {
     if let Some(p) = &a.plot {
         speleo_firmware::output_paths::check_file(p, "--plot")?;
+        let ext = p
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        if !matches!(ext.as_deref(), Some("png" | "svg")) {
+            return Err(
+                format!("--plot {}: a plot is written as .png or .svg", p.display()).into(),
+            );
+        }
     }
+    let title = flight::mission_title(&flight::sim_config(&a.mission)?);
     let r = flight::sim_mission(a.mission, progress)?;
     if let Some(path) = &a.plot {
-        speleo_tools::plot::write_plot(path, &speleo_tools::plot::of_mission(&r))?;
+        speleo_tools::plot::write_plot(path, &speleo_tools::plot::of_mission(&r, title))?;
     }
     flight::print_summary(&r);
     Ok(flight::finished_status())
@@ -147,7 +170,11 @@ fn main() -> ExitCode {
     // The commands that run missions end them cleanly on Ctrl-C or SIGTERM.
     if matches!(
         cli.command,
-        Command::Sim(_) | Command::Replay(_) | Command::Run(_) | Command::Campaign(_)
+        Command::Sim(_)
+            | Command::Replay(_)
+            | Command::Run(_)
+            | Command::Twin(_)
+            | Command::Campaign(_)
     ) {
         if let Err(e) = speleo_firmware::signals::install() {
             eprintln!("error: cannot catch Ctrl-C and SIGTERM: {e}");
@@ -158,6 +185,26 @@ fn main() -> ExitCode {
         Command::Sim(a) => sim(a, progress),
         Command::Replay(a) => flight::replay(a, progress),
         Command::Run(a) => flight::run(a, progress),
+        Command::Twin(a) => speleo_tools::twin::twin(speleo_tools::twin::TwinRequest {
+            config: a.config,
+            world: a.world,
+            seed: a.seed,
+            noise_seed: a.noise_seed,
+            duration_s: a.duration,
+            record: a.record,
+            report: a.report,
+            unplug_lidar: a.unplug_lidar,
+        }),
+        Command::Hil(a) => speleo_tools::hil::hil(speleo_tools::hil::HilRequest {
+            world: a.world,
+            seed: a.seed,
+            duration_s: a.duration,
+            twin_config: a.twin_config,
+            flight_config: a.config,
+            out_dir: a.out,
+            report: a.report,
+            unplug_lidar: a.unplug_lidar,
+        }),
         Command::Info(a) => info::info(a),
         Command::Pcap2mcap(a) => decode::pcap2mcap(a),
         Command::Decode(d) => decode::decode(d),

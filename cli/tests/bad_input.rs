@@ -3,15 +3,10 @@
 //! success.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 
-fn speleo(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_speleo"))
-        .args(args)
-        .arg("--no-progress")
-        .output()
-        .expect("speleo runs")
-}
+mod common;
+use common::speleo;
 
 /// The command fails (exit status 1 or 2, not a panic's 101) and its
 /// standard error holds every one of `words`.

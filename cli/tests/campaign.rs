@@ -9,17 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn speleo(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_speleo"))
-        .args(args)
-        .arg("--no-progress")
-        .output()
-        .expect("speleo runs")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
+mod common;
+use common::{speleo, text};
 
 fn ok(o: &Output) -> String {
     assert!(

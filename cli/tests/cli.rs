@@ -2,20 +2,11 @@
 //! messages, and a recording whose process was killed.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn speleo(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_speleo"))
-        .args(args)
-        .arg("--no-progress")
-        .output()
-        .expect("speleo runs")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
+mod common;
+use common::{speleo, text};
 
 /// (output hash, input hash) of a report.
 fn hashes_of(report: &Path) -> (String, String) {

@@ -1,19 +1,8 @@
 //! `speleo info` on a finished recording, on one cut short, and on a file
 //! that is not a recording.
 
-use std::process::{Command, Output};
-
-fn speleo(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_speleo"))
-        .args(args)
-        .arg("--no-progress")
-        .output()
-        .expect("speleo runs")
-}
-
-fn text(b: &[u8]) -> String {
-    String::from_utf8_lossy(b).into_owned()
-}
+mod common;
+use common::{speleo, text};
 
 #[test]
 fn info_tells_topics_counts_and_whether_the_recording_was_finished() {

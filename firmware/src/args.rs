@@ -21,6 +21,17 @@ pub struct Outputs {
     /// DIR/NNNNNN.ply with DIR/poses.txt (KITTI), for `speleo mesh --scans`.
     #[arg(long, value_name = "DIR")]
     pub export_scans: Option<PathBuf>,
+    /// Serve the recorded channels live over the Foxglove WebSocket
+    /// protocol (Foxglove: Open connection, Foxglove WebSocket), on
+    /// 127.0.0.1:8765 unless an address is given. A slow viewer loses
+    /// messages (counted in the report), never delays a frame.
+    #[arg(
+        long,
+        value_name = "ADDR:PORT",
+        num_args = 0..=1,
+        default_missing_value = crate::record::live::DEFAULT_ADDRESS
+    )]
+    pub live: Option<String>,
 }
 
 #[derive(Args, Debug)]

@@ -386,7 +386,16 @@ pub struct DevicesConfig {
     pub lidar_sensor: String,
     pub imu_port: String,
     pub imu_baud: u32,
+    /// `socketcan`: a kernel CAN interface (`can_interface`); `slcan`: a
+    /// serial-line CAN adapter (CANable, USBtin, CANUSB) on `can_serial_port`.
+    pub can_transport: String,
     pub can_interface: String,
+    pub can_serial_port: String,
+    /// The adapter's serial line rate (USB adapters ignore it).
+    pub can_serial_baud: u32,
+    /// The bus's bit rate, which `slcan` sets on the adapter (a SocketCAN
+    /// interface is set with `ip link`).
+    pub can_bit_rate: u32,
 }
 
 impl Default for DevicesConfig {
@@ -397,7 +406,11 @@ impl Default for DevicesConfig {
             lidar_sensor: "192.168.1.201:2368".into(),
             imu_port: "/dev/ttyUSB0".into(),
             imu_baud: 921_600,
+            can_transport: "socketcan".into(),
             can_interface: "can0".into(),
+            can_serial_port: "/dev/ttyACM0".into(),
+            can_serial_baud: 115_200,
+            can_bit_rate: 1_000_000,
         }
     }
 }
@@ -810,6 +823,30 @@ impl Config {
             4_000_000,
             "1200..=4000000",
         )?;
+        let d = &self.devices;
+        if d.can_transport != "socketcan" && d.can_transport != "slcan" {
+            return Err(ConfigError::Invalid {
+                key: "devices.can_transport".into(),
+                why: format!("\"{}\" is not socketcan or slcan", d.can_transport),
+            });
+        }
+        if !speleo_hal::slcan::BIT_RATES.contains(&d.can_bit_rate) {
+            return Err(ConfigError::Invalid {
+                key: "devices.can_bit_rate".into(),
+                why: format!(
+                    "{} bit/s is not a CAN bit rate an slcan adapter sets ({:?})",
+                    d.can_bit_rate,
+                    speleo_hal::slcan::BIT_RATES
+                ),
+            });
+        }
+        range(
+            "devices.can_serial_baud",
+            d.can_serial_baud,
+            1200,
+            4_000_000,
+            "1200..=4000000",
+        )?;
         Ok(())
     }
 }
@@ -817,6 +854,27 @@ impl Config {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_can_transport_and_its_bit_rate_are_checked() {
+        let c = Config::from_toml("[devices]\ncan_transport = \"slcan\"\ncan_bit_rate = 500000\n")
+            .expect("read");
+        c.validate().expect("valid");
+        let e = Config::from_toml("[devices]\ncan_transport = \"lin\"\n")
+            .expect_err("not a transport")
+            .to_string();
+        assert!(
+            e.contains("devices.can_transport") && e.contains("lin"),
+            "{e}"
+        );
+        let e = Config::from_toml("[devices]\ncan_bit_rate = 83333\n")
+            .expect_err("not an slcan rate")
+            .to_string();
+        assert!(
+            e.contains("devices.can_bit_rate") && e.contains("83333"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn defaults_are_valid_and_round_trip() {

@@ -14,6 +14,7 @@ pub mod mission;
 pub mod output_paths;
 pub mod params;
 pub mod planner_figures;
+pub mod realtime_figures;
 pub mod record;
 pub mod report;
 pub mod schedule_table;

@@ -16,8 +16,9 @@ use speleo_twin::TruthProbe;
 
 use crate::bus::Bus;
 use crate::config::Config;
-use crate::record::encode::{FrameTransform, Pose, PoseInFrame, Quaternion, SeqOf, Time};
+use crate::record::cdr::CdrWriter;
 use crate::record::messages::mode_name;
+use crate::record::ros2::{header, pose_stamped, tf_message, Transform};
 use crate::record::tap::TapCounters;
 use crate::record::{RecorderTap, Topic};
 use crate::simulator_host::SimulatorWorker;
@@ -39,8 +40,9 @@ pub struct MissionInputs<'a> {
     pub enforcement: Enforcement,
     pub truth: Option<TruthProbe>,
     pub stop: &'a AtomicBool,
-    /// Called between frames with (frames done, frames total) for progress.
-    pub progress: Option<&'a dyn Fn(u64, Option<u64>)>,
+    /// Called between frames (once a mission second) for the progress
+    /// display.
+    pub progress: Option<&'a dyn Fn(&Progress)>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -122,6 +124,46 @@ pub struct MissionResult {
     pub faults: crate::faults::log::FaultFigures,
     /// None without the accounting allocator.
     pub memory: Option<MemoryFigures>,
+    /// What the live view sent and dropped (filled in once it has closed).
+    pub live: Option<crate::record::live::LiveCounters>,
+    /// Frame start lateness and input-to-output latencies, in real time.
+    pub realtime: Option<crate::realtime_figures::RealtimeFigures>,
+    /// Where the rover believed it was at the end: the last SLAM pose (map
+    /// frame) and the odometry's distance driven.
+    pub end: Option<EndPose>,
+}
+
+/// The report's `end` section.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct EndPose {
+    pub slam_position: [f64; 3],
+    /// w, x, y, z.
+    pub slam_orientation: [f64; 4],
+    pub odometry_distance_m: f64,
+}
+
+/// Where a mission stands, for the progress display.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    pub mission_s: f64,
+    /// The mission's time limit, when it has one.
+    pub total_s: Option<f64>,
+    /// exploring, returning, home, stranded, or following the route.
+    pub phase: &'static str,
+    /// Odometry's distance driven.
+    pub driven_m: f64,
+}
+
+/// The exploration phase as the progress display names it.
+pub fn phase_name(p: speleo_messages::ExplorationPhase) -> &'static str {
+    use speleo_messages::ExplorationPhase::*;
+    match p {
+        Off => "following the route",
+        Exploring => "exploring",
+        Returning => "returning home",
+        Finished => "home",
+        Stranded => "stranded",
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -221,6 +263,12 @@ pub fn run<C: FrameClock>(
         (Some(_), Some(n)) => n as usize,
         _ => 0,
     });
+    // On hardware whose time passes on its own, inputs are followed to the
+    // outputs made from them.
+    let mut latency = hw
+        .borrow()
+        .receive_clock_ns()
+        .map(|_| crate::realtime_figures::LatencyProbe::new());
     warm_up_blocking();
     let started = Instant::now();
     accounting::reset();
@@ -271,6 +319,9 @@ pub fn run<C: FrameClock>(
             exec.leave_safe_mode();
             bus.recovery_ready = false;
         }
+        if let (Some(p), Some(now)) = (&mut latency, hw.borrow().receive_clock_ns()) {
+            p.observe(&bus, now);
+        }
         bus.timing.overruns += f.overruns as u64;
         bus.timing.slipped_frames += f.slipped;
         bus.timing.enforcing = m.enforcement == Enforcement::Enforce;
@@ -311,7 +362,13 @@ pub fn run<C: FrameClock>(
         }
         if let Some(p) = m.progress {
             if f.frame % 100 == 0 {
-                p(exec.frames_run(), total);
+                let frame_s = m.cfg.executive.minor_frame_us as f64 * 1e-6;
+                p(&Progress {
+                    mission_s: exec.frames_run() as f64 * frame_s,
+                    total_s: total.map(|n| n as f64 * frame_s),
+                    phase: phase_name(bus.exploration.phase),
+                    driven_m: bus.odom.get().map_or(0.0, |o| o.value.distance_m),
+                });
             }
         }
         accounting::set_slot(speleo_scheduler::clock::EXECUTIVE_SLOT);
@@ -375,6 +432,12 @@ pub fn run<C: FrameClock>(
             memory_budget_kib: crate::schedule_table::memory_budget_kib(cfg, &spec.name),
         })
         .collect();
+    let realtime = latency.map(|p| p.figures(exec.clock().start_lateness()));
+    let end = bus.slam.get().map(|p| EndPose {
+        slam_position: p.value.position,
+        slam_orientation: p.value.orientation,
+        odometry_distance_m: bus.odom.get().map_or(0.0, |o| o.value.distance_m),
+    });
     let frames = exec.frames_run();
     let slips = exec.slips();
     let mode = exec.mode();
@@ -469,6 +532,9 @@ pub fn run<C: FrameClock>(
     Ok(MissionResult {
         success: None,
         memory,
+        live: None,
+        realtime,
+        end,
         faults: fault_log.figures(),
         exploration,
         explored,
@@ -509,37 +575,29 @@ fn record_truth(
     frame: u64,
     now: u64,
     truth: &TruthProbe,
-    odom_origin: &mut Option<([f64; 3], [f64; 4])>,
+    map_origin: &mut Option<([f64; 3], [f64; 4])>,
 ) {
     let g = truth.get();
-    let (at, rotation) = *odom_origin.get_or_insert_with(|| {
-        // The odometry frame: level, at the first true pose, heading as the
-        // rover heads. This ties the two trees together in a viewer.
+    let (at, rotation) = *map_origin.get_or_insert_with(|| {
+        // The map (and odometry) frame: level, at the first true pose,
+        // heading as the rover heads. This ties the two trees together in a
+        // viewer.
         let half = 0.5 * g.yaw();
         (g.position, [half.cos(), 0.0, 0.0, half.sin()])
     });
     if frame.is_multiple_of(crate::tasks::recorder::PLAN_EVERY_FRAMES) {
-        let tf = FrameTransform {
-            timestamp: tap.time(now),
-            parent_frame_id: "world",
-            child_frame_id: "odom",
-            translation: at.into(),
-            rotation: Quaternion::wxyz(rotation),
+        let tf = Transform {
+            stamp: tap.time(now),
+            parent: "world",
+            child: "map",
+            translation: at,
+            rotation,
         };
-        tap.emit(Topic::SimTf, frame, now, now, |w| {
-            serde_json::to_writer(w, &tf)
-        });
+        tap.emit(Topic::SimTf, frame, now, now, |w| tf_message(w, &[tf]));
     }
-    let msg = PoseInFrame {
-        timestamp: tap.time(g.time_ns),
-        frame_id: "world",
-        pose: Pose {
-            position: g.position.into(),
-            orientation: Quaternion::wxyz(g.orientation),
-        },
-    };
+    let stamp = tap.time(g.time_ns);
     tap.emit(Topic::GroundTruth, frame, now, g.time_ns, |w| {
-        serde_json::to_writer(w, &msg)
+        pose_stamped(w, stamp, "world", g.position, g.orientation)
     });
 }
 
@@ -552,46 +610,26 @@ fn record_telemetry<P, C>(
     P: speleo_scheduler::Platform,
     C: FrameClock,
 {
-    #[derive(Serialize)]
-    struct TaskJson<'a> {
-        name: &'a str,
-        runs: u64,
-        overruns: u64,
-        skipped: u64,
-        max_us: f64,
-        p50_us: f64,
-        p99_us: f64,
-        p999_us: f64,
-    }
-    #[derive(Serialize)]
-    struct Telemetry<S> {
-        timestamp: Time,
-        frames: u64,
-        slips: u64,
-        mode: &'static str,
-        tasks: S,
-    }
-    let msg =
-        Telemetry {
-            timestamp: tap.time(now),
-            frames: exec.frames_run(),
-            slips: exec.slips(),
-            mode: mode_name(exec.mode()),
-            tasks: SeqOf::new(exec.schedule().tasks().iter().zip(exec.stats()).map(
-                |(spec, st)| TaskJson {
-                    name: spec.name.as_str(),
-                    runs: st.runs,
-                    overruns: st.overruns,
-                    skipped: st.skipped,
-                    max_us: st.max_us(),
-                    p50_us: st.p50_us(),
-                    p99_us: st.p99_us(),
-                    p999_us: st.p999_us(),
-                },
-            )),
-        };
+    let stamp = tap.time(now);
     tap.emit(Topic::Scheduler, frame, now, now, |w| {
-        serde_json::to_writer(w, &msg)
+        let mut c = CdrWriter::new(w)?;
+        header(&mut c, stamp, "")?;
+        c.u64(exec.frames_run())?;
+        c.u64(exec.slips())?;
+        c.string(mode_name(exec.mode()))?;
+        let tasks = exec.schedule().tasks();
+        c.sequence_len(tasks.len())?;
+        for (spec, st) in tasks.iter().zip(exec.stats()) {
+            c.string(spec.name.as_str())?;
+            c.u64(st.runs)?;
+            c.u64(st.overruns)?;
+            c.u64(st.skipped)?;
+            c.f64(st.max_us())?;
+            c.f64(st.p50_us())?;
+            c.f64(st.p99_us())?;
+            c.f64(st.p999_us())?;
+        }
+        Ok(())
     });
 }
 

@@ -35,6 +35,16 @@ pub struct Report<'a> {
     pub success: Option<&'a speleo_campaign::success::Success>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub memory: Option<crate::mission::MemoryFigures>,
+    /// What the live view sent and dropped (with `--live`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub live: Option<crate::record::live::LiveCounters>,
+    /// Timing in real time (`run`): frame start lateness, latencies, and
+    /// what real-time setup was granted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub realtime: Option<&'a crate::realtime_figures::RealtimeFigures>,
+    /// Where the rover believed it was at the end.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub end: Option<crate::mission::EndPose>,
 }
 
 #[derive(Serialize)]
@@ -108,6 +118,7 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
             "can_frames": c.can_frames,
             "can_malformed": c.can_malformed,
             "can_unmapped": c.can_unmapped,
+            "can_transport_dropped": c.can_transport_dropped,
             "can_bad_length": c.can_bad_length,
             "raw_dropped": c.raw_dropped,
             "hal_errors": c.hal_errors,
@@ -121,6 +132,9 @@ pub fn build<'a>(mode: &'a str, r: &'a MissionResult, replay: Option<ReplayRepor
         faults: &r.faults,
         success: r.success.as_ref(),
         memory: r.memory,
+        live: r.live,
+        realtime: r.realtime.as_ref(),
+        end: r.end,
     }
 }
 

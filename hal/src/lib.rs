@@ -18,6 +18,8 @@ pub mod pcap;
 pub mod real;
 pub mod replay;
 pub mod shared_data;
+pub mod slcan;
+pub mod slcan_adapter;
 pub mod xbus;
 pub mod xsens_config;
 
@@ -116,6 +118,11 @@ pub trait ImuPort {
 pub trait CanBus {
     fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError>;
     fn send(&mut self, now_ns: u64, frame: &CanFrame) -> Result<(), HalError>;
+    /// Received input the transport could not make into frames and dropped
+    /// so far (an slcan adapter's bad lines); frames reach the drivers whole.
+    fn dropped_input(&self) -> u64 {
+        0
+    }
 }
 
 /// The whole rover as seen by the on-board software.
@@ -135,6 +142,12 @@ pub trait Hardware {
     /// fall): the mission ends. Real and replayed hardware never are.
     fn world_over(&self) -> bool {
         false
+    }
+    /// Now, in the time base of the receive times, on hardware whose time
+    /// passes on its own (the real rover); none where the executive's
+    /// frames make the time (sim, replay).
+    fn receive_clock_ns(&self) -> Option<u64> {
+        None
     }
     fn lidar(&mut self) -> &mut dyn LidarSource;
     fn imu(&mut self) -> &mut dyn ImuPort;

@@ -39,5 +39,8 @@ pub struct Counters {
     pub hal_errors: u64,
     /// Errors of the CAN controller (bus-off), sending or receiving.
     pub can_errors: u64,
+    /// Input the CAN transport could not make into frames (an slcan
+    /// adapter's bad lines), dropped.
+    pub can_transport_dropped: u64,
     pub imu_samples_lost: u64,
 }

@@ -35,6 +35,12 @@ pub trait FrameClock {
     /// Start time of `frame` in nanoseconds since start.
     fn frame_time_ns(&self, frame: u64) -> u64;
     fn minor_frame_ns(&self) -> u64;
+    /// How late each frame started against its scheduled time, on a clock
+    /// that runs in real time; none on virtual time, where frames start on
+    /// time by definition.
+    fn start_lateness(&self) -> Option<&crate::histogram::Histogram> {
+        None
+    }
 }
 
 /// Simulated time: exactly one minor frame per frame, however long the work

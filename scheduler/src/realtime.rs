@@ -60,6 +60,8 @@ impl Platform for StdPlatform {
 pub struct MonotonicClock {
     minor_frame_ns: u64,
     t0: u64,
+    /// How late each frame started (wake-up after its deadline).
+    lateness: crate::histogram::Histogram,
 }
 
 impl MonotonicClock {
@@ -67,6 +69,7 @@ impl MonotonicClock {
         MonotonicClock {
             minor_frame_ns: minor_frame_us as u64 * 1000,
             t0: 0,
+            lateness: crate::histogram::Histogram::new(),
         }
     }
 
@@ -104,11 +107,20 @@ impl FrameClock for MonotonicClock {
         let now = monotonic_ns();
         if now < deadline {
             Self::sleep_until(deadline);
+            self.lateness
+                .record(monotonic_ns().saturating_sub(deadline));
             return frame;
         }
         // Late by less than one frame: run it now. Later: skip to the frame
         // whose slot we are in.
-        frame + (now - deadline) / self.minor_frame_ns
+        let run = frame + (now - deadline) / self.minor_frame_ns;
+        self.lateness
+            .record(now - (self.t0 + run * self.minor_frame_ns));
+        run
+    }
+
+    fn start_lateness(&self) -> Option<&crate::histogram::Histogram> {
+        Some(&self.lateness)
     }
 
     fn frame_time_ns(&self, frame: u64) -> u64 {

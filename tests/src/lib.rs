@@ -86,6 +86,33 @@ pub fn read_tum(path: &Path) -> Vec<(f64, [f64; 3])> {
         .collect()
 }
 
+/// Reads recorded messages through their channels' `ros2msg` schemas,
+/// parsing each schema once.
+#[derive(Default)]
+pub struct MessageDecoder {
+    defs: std::collections::BTreeMap<u16, speleo_firmware::record::msg_def::MessageDefs>,
+}
+
+impl MessageDecoder {
+    /// The message as JSON; panics (naming the topic) when it does not
+    /// match its schema.
+    pub fn decode(&mut self, m: &mcap::Message<'_>) -> serde_json::Value {
+        use speleo_firmware::record::{cdr_json, msg_def::MessageDefs};
+        let topic = &m.channel.topic;
+        let defs = self.defs.entry(m.channel.id).or_insert_with(|| {
+            let schema = m
+                .channel
+                .schema
+                .as_ref()
+                .unwrap_or_else(|| panic!("{topic} has no schema"));
+            assert_eq!(schema.encoding, "ros2msg", "{topic}");
+            let text = std::str::from_utf8(&schema.data).expect("schema text");
+            MessageDefs::parse(&schema.name, text).unwrap_or_else(|e| panic!("{topic}: {e}"))
+        });
+        cdr_json::decode(defs, &m.data).unwrap_or_else(|e| panic!("{topic}: {e}"))
+    }
+}
+
 pub fn read_json(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))

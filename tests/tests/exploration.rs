@@ -40,7 +40,8 @@ fn mission(world: &str, duration_s: f64, toml: &str, plot: Option<PathBuf>) -> s
     )
     .unwrap_or_else(|e| panic!("sim failed: {e}"));
     if let Some(path) = &plot {
-        speleo_tools::plot::write_plot(path, &speleo_tools::plot::of_mission(&r))
+        let title = format!("{world}, seed 1");
+        speleo_tools::plot::write_plot(path, &speleo_tools::plot::of_mission(&r, title))
             .unwrap_or_else(|e| panic!("plot: {e}"));
     }
     let text = std::fs::read_to_string(&report).unwrap_or_else(|e| panic!("{e}"));

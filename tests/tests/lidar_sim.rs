@@ -7,11 +7,12 @@ use std::process::ExitCode;
 
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use speleo_firmware::record::cdr::read_point_cloud2;
-use speleo_tests::{read_json, replay, sim_with_config, Scratch};
+use speleo_tests::{read_json, replay, sim_with_config, MessageDecoder, Scratch};
 use speleo_twin::lidar::LidarWorld;
 use speleo_twin::world::World;
 
-/// A foxglove pose or transform in JSON as an isometry.
+/// A ROS pose or transform (position or translation, and orientation or
+/// rotation, decoded to JSON) as an isometry.
 fn pose(position: &serde_json::Value, q: &serde_json::Value) -> Isometry3<f64> {
     let f = |v: &serde_json::Value, k: &str| v[k].as_f64().expect("number");
     Isometry3::from_parts(
@@ -34,32 +35,52 @@ fn simulated_clouds_land_on_the_cave_and_replay_identically() {
     sim_with_config(5, 6.0, Some(&cfg), Some(&log), Some(&s.path("a.json")));
     let bytes = std::fs::read(&log).expect("recording");
 
-    // The transforms a viewer chains: world -> odom -> base_link -> lidar.
-    let mut world_odom = None;
+    // The transforms a viewer chains: world -> map -> odom -> base_link -> lidar.
+    let mut world_map = None;
+    let mut map_odom: Vec<(u64, Isometry3<f64>)> = Vec::new();
     let mut odom: Vec<(u64, Isometry3<f64>)> = Vec::new();
     let mut base_lidar = None;
     let mut last_cloud = None;
     let mut clouds = 0;
+    let mut decoder = MessageDecoder::default();
     for m in mcap::MessageStream::new(&bytes).expect("stream") {
         let m = m.expect("message");
-        let json = || serde_json::from_slice::<serde_json::Value>(&m.data).expect("json");
+        let tf = |v: &serde_json::Value| {
+            let t = &v["transforms"][0];
+            let x = &t["transform"];
+            (
+                t["header"]["frame_id"].as_str().unwrap_or("").to_string(),
+                t["child_frame_id"].as_str().unwrap_or("").to_string(),
+                pose(&x["translation"], &x["rotation"]),
+            )
+        };
         match m.channel.topic.as_str() {
             "/sim/tf" => {
-                let v = json();
-                world_odom = Some(pose(&v["translation"], &v["rotation"]));
+                let (parent, child, p) = tf(&decoder.decode(&m));
+                assert_eq!((parent.as_str(), child.as_str()), ("world", "map"));
+                world_map = Some(p);
+            }
+            "/tf_static" => {
+                let v = decoder.decode(&m);
+                for t in v["transforms"].as_array().expect("transforms") {
+                    if t["child_frame_id"] == "lidar" {
+                        let x = &t["transform"];
+                        base_lidar = Some(pose(&x["translation"], &x["rotation"]));
+                    }
+                }
             }
             "/tf" => {
-                let v = json();
-                if v["child_frame_id"] == "lidar" {
-                    base_lidar = Some(pose(&v["translation"], &v["rotation"]));
+                let (parent, child, p) = tf(&decoder.decode(&m));
+                if (parent.as_str(), child.as_str()) == ("map", "odom") {
+                    map_odom.push((m.publish_time, p));
                 }
             }
             "/odom" => {
-                let v = json();
-                odom.push((
-                    m.publish_time,
-                    pose(&v["pose"]["position"], &v["pose"]["orientation"]),
-                ));
+                let v = decoder.decode(&m);
+                assert_eq!(v["header"]["frame_id"], "odom");
+                assert_eq!(v["child_frame_id"], "base_link");
+                let p = &v["pose"]["pose"];
+                odom.push((m.publish_time, pose(&p["position"], &p["orientation"])));
             }
             "/lidar/points" => {
                 clouds += 1;
@@ -81,7 +102,14 @@ fn simulated_clouds_land_on_the_cave_and_replay_identically() {
         .rev()
         .find(|(t, _)| *t <= stamp)
         .expect("odometry before the cloud");
-    let to_world = world_odom.expect("/sim/tf") * odom_base * base_lidar.expect("lidar tf");
+    // map -> odom at that time: identity until SLAM has its first keyframe.
+    let map_odom = map_odom
+        .iter()
+        .rev()
+        .find(|(t, _)| *t <= stamp)
+        .map_or(Isometry3::identity(), |(_, p)| *p);
+    let to_world =
+        world_map.expect("/sim/tf") * map_odom * odom_base * base_lidar.expect("/tf_static");
 
     let world = World::build("lava-tube", 5).expect("tube");
     let mesh = LidarWorld::new(&world.mesh).expect("mesh");

@@ -98,6 +98,7 @@ fn the_runs_mesh_lies_on_the_tube_and_comes_back_from_scans_and_from_the_recordi
                 report: Some(report.clone()),
                 mesh: Some(mesh.clone()),
                 export_scans: Some(scans.clone()),
+                live: None,
             },
         },
         false,

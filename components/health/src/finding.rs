@@ -23,7 +23,7 @@ pub const NAMES: [(u16, &str); 9] = [
 ];
 
 /// The names of the findings in `mask`.
-pub fn names(mask: u16) -> impl Iterator<Item = &'static str> {
+pub fn names(mask: u16) -> impl Iterator<Item = &'static str> + Clone {
     NAMES
         .iter()
         .filter(move |(bit, _)| mask & bit != 0)

@@ -102,7 +102,7 @@ impl Navigator {
         ex.counters.goals_unreachable += 1;
         let at = self.query.order[self.query.tried].1;
         // The way to a goal may leave the window (from the far side of a
-        // level, the way onto a ramp whose top is the goal): a search that
+        // level, or to a goal above the start): a search that
         // ran into the window's border proves nothing until the window is
         // as large as it gets. One that never met the border would search
         // the same states in a larger window, and fail again.

@@ -53,6 +53,26 @@ impl<W: Write> CdrWriter<W> {
         self.raw(&v.to_le_bytes())
     }
 
+    pub fn u16(&mut self, v: u16) -> io::Result<()> {
+        self.align(2)?;
+        self.raw(&v.to_le_bytes())
+    }
+
+    pub fn u64(&mut self, v: u64) -> io::Result<()> {
+        self.align(8)?;
+        self.raw(&v.to_le_bytes())
+    }
+
+    pub fn f32(&mut self, v: f32) -> io::Result<()> {
+        self.align(4)?;
+        self.raw(&v.to_le_bytes())
+    }
+
+    pub fn f64(&mut self, v: f64) -> io::Result<()> {
+        self.align(8)?;
+        self.raw(&v.to_le_bytes())
+    }
+
     /// A `builtin_interfaces/Time`.
     pub fn time(&mut self, sec: u64, nsec: u32) -> io::Result<()> {
         // int32 seconds: Unix times up to 2038, as ROS 2 has them.
@@ -63,6 +83,27 @@ impl<W: Write> CdrWriter<W> {
     pub fn string(&mut self, s: &str) -> io::Result<()> {
         self.u32(s.len() as u32 + 1)?;
         self.raw(s.as_bytes())?;
+        self.u8(0)
+    }
+
+    /// A string made of `parts` with `sep` between them, written without
+    /// joining them first.
+    pub fn string_joined<'s>(
+        &mut self,
+        parts: impl Iterator<Item = &'s str> + Clone,
+        sep: &str,
+    ) -> io::Result<()> {
+        let (n, len) = parts
+            .clone()
+            .fold((0usize, 0usize), |(n, l), p| (n + 1, l + p.len()));
+        let total = len + sep.len() * n.saturating_sub(1);
+        self.u32(total as u32 + 1)?;
+        for (i, p) in parts.enumerate() {
+            if i > 0 {
+                self.raw(sep.as_bytes())?;
+            }
+            self.raw(p.as_bytes())?;
+        }
         self.u8(0)
     }
 
@@ -154,55 +195,6 @@ impl<'a> CdrReader<'a> {
         self.take(n, 1)
     }
 }
-
-/// `speleo_msgs/msg/RawInput`: bytes exactly as a device delivered them.
-pub const RAW_INPUT: &str = "\
-# Bytes exactly as received from a device.
-# lidar: one UDP payload; imu: a serial read; can: one SocketCAN struct can_frame (16 bytes)
-builtin_interfaces/Time receive_time
-string device
-uint8[] data
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-";
-
-/// `sensor_msgs/msg/PointCloud2` with its dependencies, as Foxglove wants a
-/// ros2msg schema.
-pub const POINT_CLOUD2: &str = "\
-std_msgs/Header header
-uint32 height
-uint32 width
-PointField[] fields
-bool is_bigendian
-uint32 point_step
-uint32 row_step
-uint8[] data
-bool is_dense
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-================================================================================
-MSG: sensor_msgs/PointField
-uint8 INT8=1
-uint8 UINT8=2
-uint8 INT16=3
-uint8 UINT16=4
-uint8 INT32=5
-uint8 UINT32=6
-uint8 FLOAT32=7
-uint8 FLOAT64=8
-string name
-uint32 offset
-uint8 datatype
-uint32 count
-";
 
 /// Write a `RawInput`.
 pub fn write_raw_input<W: Write>(

@@ -1,6 +1,8 @@
 //! Replay's judge: every output the replay produces must equal, byte for
 //! byte, the output recorded on the same topic in the same frame.
 
+use super::cdr_json::decode;
+use super::msg_def::MessageDefs;
 use super::topics::Topic;
 use super::writer::MESSAGE_CAPACITY;
 
@@ -160,7 +162,7 @@ impl Comparer {
         Some(match &d.kind {
             DivergenceKind::Differs { expected } => {
                 let rec = &queue[*expected].data;
-                let (field, a, b) = first_difference(rec, &self.actual);
+                let (field, a, b) = first_difference(d.topic, rec, &self.actual);
                 format!(
                     "divergence: topic {name}, frame {}, field {field}: recorded {a}, replayed {b}",
                     d.frame
@@ -178,9 +180,19 @@ impl Comparer {
     }
 }
 
-/// The path of the first field whose value differs, with both values.
-pub fn first_difference(recorded: &[u8], replayed: &[u8]) -> (String, String, String) {
-    let parse = |b: &[u8]| serde_json::from_slice::<serde_json::Value>(b);
+/// The path of the first field whose value differs, with both values, read
+/// through the topic's schema.
+pub fn first_difference(
+    topic: Topic,
+    recorded: &[u8],
+    replayed: &[u8],
+) -> (String, String, String) {
+    let info = topic.info();
+    let defs = MessageDefs::parse(info.schema, info.schema_data);
+    let parse = |b: &[u8]| match &defs {
+        Ok(d) => decode(d, b).map_err(|e| e.to_string()),
+        Err(e) => Err(e.clone()),
+    };
     match (parse(recorded), parse(replayed)) {
         (Ok(a), Ok(b)) => {
             let mut path = String::new();
@@ -290,14 +302,29 @@ mod tests {
 
     #[test]
     fn a_changed_field_is_named() {
-        let mut c = comparer(vec![msg(1, r#"{"pose":{"position":{"x":1.0,"y":2.0}}}"#)]);
-        c.check(
-            Topic::Odom,
-            1,
-            br#"{"pose":{"position":{"x":1.0,"y":2.5}}}"#,
-        );
+        use crate::record::encode::Time;
+        let pose = |y: f64| {
+            let mut v = Vec::new();
+            let t = Time { sec: 1, nsec: 0 };
+            crate::record::ros2::pose_stamped(
+                &mut v,
+                t,
+                "map",
+                [1.0, y, 0.0],
+                [1.0, 0.0, 0.0, 0.0],
+            )
+            .expect("write");
+            v
+        };
+        let mut e = vec![Vec::new(); Topic::ALL.len()];
+        e[Topic::SlamPose as usize] = vec![ExpectedMessage {
+            frame: 1,
+            data: pose(2.0),
+        }];
+        let mut c = Comparer::new(e, 10, 0);
+        c.check(Topic::SlamPose, 1, &pose(2.5));
         let d = c.describe().expect("diverged");
-        assert!(d.contains("/odom"), "{d}");
+        assert!(d.contains("/slam/pose"), "{d}");
         assert!(d.contains("frame 1"), "{d}");
         assert!(d.contains("pose.position.y"), "{d}");
         assert!(d.contains("2.5"), "{d}");

@@ -1,19 +1,18 @@
-//! The recorded form of the bus's messages: JSON bodies (Foxglove's
-//! schemas where one exists), scene lines for paths, CDR point clouds, and
-//! the names of states as the recording spells them.
+//! The recorded form of the bus's device and command messages as ROS 2
+//! types in CDR (standard messages where one exists, `speleo_msgs` for the
+//! rest), and the names of states as the recording spells them.
 
-use serde::Serialize;
+use speleo_hal::can::CanFrame;
 use speleo_hal::Device;
-use speleo_messages::Counters;
+use speleo_messages::ImuSample;
 use speleo_scheduler::Mode;
 
 use speleo_hal::canopen::supervisor::{DrivesState, StopReasons};
-use speleo_hal::xsens_config::ConfigState;
-use speleo_health::{finding, SOURCE_NAMES};
-use speleo_messages::HealthReport;
 use speleo_scheduler::mailbox::Stamped as Published;
 
-use crate::record::encode::{Color, Pose, Quaternion, SeqOf, Time, Vector3, WheelJson};
+use crate::record::cdr::CdrWriter;
+use crate::record::encode::Time;
+use crate::record::ros2::{header, pose, quaternion, unknown_covariance, vector3};
 use crate::record::{RecorderTap, Topic};
 
 pub(crate) fn raw_topic(d: Device) -> Topic {
@@ -22,65 +21,6 @@ pub(crate) fn raw_topic(d: Device) -> Topic {
         Device::LidarPosition => Topic::RawLidarPosition,
         Device::Imu => Topic::RawImu,
         Device::Can => Topic::RawCan,
-    }
-}
-
-#[derive(Serialize)]
-pub(crate) struct Stamped<T> {
-    pub(crate) timestamp: Time,
-    #[serde(flatten)]
-    pub(crate) body: T,
-}
-
-#[derive(Serialize)]
-pub(crate) struct HealthJson<'a, S: Serialize, F: Serialize> {
-    pub(crate) timestamp: Time,
-    pub(crate) mode: &'a str,
-    pub(crate) imu_config: &'a str,
-    pub(crate) stale: S,
-    pub(crate) findings: F,
-    pub(crate) drive_faults: u8,
-    pub(crate) counters: CountersJson,
-}
-
-#[derive(Serialize)]
-pub(crate) struct CountersJson {
-    imu_frames: u64,
-    imu_bad_checksums: u64,
-    imu_skipped_bytes: u64,
-    imu_oversize: u64,
-    imu_bad_items: u64,
-    imu_other_messages: u64,
-    imu_samples_lost: u64,
-    can_frames: u64,
-    can_malformed: u64,
-    can_unmapped: u64,
-    can_bad_length: u64,
-    can_tx_dropped: u64,
-    raw_dropped: u64,
-    hal_errors: u64,
-    can_errors: u64,
-}
-
-impl From<&Counters> for CountersJson {
-    fn from(c: &Counters) -> Self {
-        CountersJson {
-            imu_frames: c.imu.frames,
-            imu_bad_checksums: c.imu.bad_checksums,
-            imu_skipped_bytes: c.imu.skipped_bytes,
-            imu_oversize: c.imu.oversize,
-            imu_bad_items: c.imu_bad_items,
-            imu_other_messages: c.imu_other_messages,
-            imu_samples_lost: c.imu_samples_lost,
-            can_frames: c.can_frames,
-            can_malformed: c.can_malformed,
-            can_unmapped: c.can_unmapped,
-            can_bad_length: c.can_bad_length,
-            can_tx_dropped: c.can_tx_dropped,
-            raw_dropped: c.raw_dropped,
-            hal_errors: c.hal_errors,
-            can_errors: c.can_errors,
-        }
     }
 }
 
@@ -104,111 +44,90 @@ pub fn mode_name(m: Mode) -> &'static str {
     }
 }
 
-/// One polyline of a `foxglove.SceneUpdate`.
-pub(crate) struct SceneLine {
+/// One polyline drawn as a `visualization_msgs/Marker`.
+pub(crate) struct MarkerLine {
     pub(crate) frame_id: &'static str,
-    pub(crate) id: &'static str,
+    pub(crate) ns: &'static str,
+    /// Close the line back to its first point.
     pub(crate) looped: bool,
     /// r, g, b.
-    pub(crate) color: [f64; 3],
+    pub(crate) color: [f32; 3],
 }
 
-/// A `foxglove.SceneUpdate` with one line entity through `points`.
-pub(crate) fn emit_line(
+/// A `visualization_msgs/MarkerArray` with one LINE_STRIP marker through
+/// `points` (in a large buffer: a route has hundreds of points).
+pub(crate) fn emit_marker_line<I>(
     tap: &mut RecorderTap,
     topic: Topic,
-    frame: u64,
-    now: u64,
-    stamp_ns: u64,
-    line: &SceneLine,
-    points: impl Iterator<Item = [f64; 3]>,
-) {
-    #[derive(Serialize)]
-    struct Point {
-        x: f64,
-        y: f64,
-        z: f64,
-    }
-    #[derive(Serialize)]
-    struct Line<P> {
-        #[serde(rename = "type")]
-        kind: u8,
-        pose: Pose,
-        thickness: f64,
-        scale_invariant: bool,
-        points: P,
-        color: Color,
-        colors: [u8; 0],
-        indices: [u8; 0],
-    }
-    #[derive(Serialize)]
-    struct Entity<'a, P> {
-        timestamp: Time,
-        frame_id: &'a str,
-        id: &'a str,
-        lifetime: Time,
-        frame_locked: bool,
-        metadata: [u8; 0],
-        arrows: [u8; 0],
-        cubes: [u8; 0],
-        spheres: [u8; 0],
-        cylinders: [u8; 0],
-        lines: [Line<P>; 1],
-        triangles: [u8; 0],
-        texts: [u8; 0],
-        models: [u8; 0],
-    }
-    #[derive(Serialize)]
-    struct SceneUpdate<'a, P> {
-        deletions: [u8; 0],
-        entities: [Entity<'a, P>; 1],
-    }
-    let points = SeqOf::new(points.map(|p| Point {
-        x: p[0],
-        y: p[1],
-        z: p[2],
-    }));
-    let [r, g, b] = line.color;
-    let msg = SceneUpdate {
-        deletions: [],
-        entities: [Entity {
-            timestamp: tap.time(stamp_ns),
-            frame_id: line.frame_id,
-            id: line.id,
-            lifetime: Time { sec: 0, nsec: 0 },
-            frame_locked: false,
-            metadata: [],
-            arrows: [],
-            cubes: [],
-            spheres: [],
-            cylinders: [],
-            lines: [Line {
-                // Line strip, or line loop.
-                kind: if line.looped { 1 } else { 0 },
-                pose: Pose {
-                    position: Vector3 {
-                        x: 0.0,
-                        y: 0.0,
-                        z: 0.0,
-                    },
-                    orientation: Quaternion::wxyz([1.0, 0.0, 0.0, 0.0]),
-                },
-                thickness: 0.05,
-                scale_invariant: false,
-                points,
-                color: Color { r, g, b, a: 1.0 },
-                colors: [],
-                indices: [],
-            }],
-            triangles: [],
-            texts: [],
-            models: [],
-        }],
-    };
-    // Hundreds of points (~60 bytes each in JSON) outgrow a small message
-    // buffer: the line goes in a point-cloud-sized one.
+    (frame, now, stamp_ns): (u64, u64, u64),
+    line: &MarkerLine,
+    points: I,
+) where
+    I: Iterator<Item = [f64; 3]> + Clone,
+{
+    const LINE_STRIP: i32 = 4;
+    const ADD: i32 = 0;
+    let stamp = tap.time(stamp_ns);
+    let first = points.clone().next();
+    let closing = first.filter(|_| line.looped);
+    let n = points.clone().count() + closing.is_some() as usize;
     tap.emit_large(topic, frame, now, stamp_ns, |w| {
-        serde_json::to_writer(w, &msg).map_err(std::io::Error::other)
+        let mut c = CdrWriter::new(w)?;
+        c.sequence_len(1)?;
+        header(&mut c, stamp, line.frame_id)?;
+        c.string(line.ns)?;
+        c.i32(0)?;
+        c.i32(LINE_STRIP)?;
+        c.i32(ADD)?;
+        pose(&mut c, [0.0; 3], [1.0, 0.0, 0.0, 0.0])?;
+        // scale.x is the line's width.
+        vector3(&mut c, [0.05, 0.0, 0.0])?;
+        let [r, g, b] = line.color;
+        [r, g, b, 1.0].iter().try_for_each(|v| c.f32(*v))?;
+        // Lifetime zero: until replaced; not frame-locked.
+        c.time(0, 0)?;
+        c.bool(false)?;
+        c.sequence_len(n)?;
+        for p in points.chain(closing) {
+            vector3(&mut c, p)?;
+        }
+        // colors, texture_resource, texture (header, format, data),
+        // uv_coordinates, text, mesh_resource, mesh_file, embedded materials.
+        c.sequence_len(0)?;
+        c.string("")?;
+        header(&mut c, Time { sec: 0, nsec: 0 }, "")?;
+        c.string("")?;
+        c.bytes(&[])?;
+        c.sequence_len(0)?;
+        c.string("")?;
+        c.string("")?;
+        c.string("")?;
+        c.bytes(&[])?;
+        c.bool(false)
+    });
+}
+
+/// A `nav_msgs/Path` through `poses` (x, y, z, yaw) in `frame_id`.
+pub(crate) fn emit_path<I>(
+    tap: &mut RecorderTap,
+    topic: Topic,
+    (frame, now, stamp_ns): (u64, u64, u64),
+    frame_id: &str,
+    poses: I,
+) where
+    I: ExactSizeIterator<Item = [f64; 4]>,
+{
+    let stamp = tap.time(stamp_ns);
+    tap.emit_large(topic, frame, now, stamp_ns, |w| {
+        let mut c = CdrWriter::new(w)?;
+        header(&mut c, stamp, frame_id)?;
+        c.sequence_len(poses.len())?;
+        for [x, y, z, yaw] in poses {
+            let half = 0.5 * yaw;
+            header(&mut c, stamp, frame_id)?;
+            pose(&mut c, [x, y, z], [half.cos(), 0.0, 0.0, half.sin()])?;
+        }
+        Ok(())
     });
 }
 
@@ -221,7 +140,6 @@ pub(crate) fn write_cloud(
     ts: Time,
     points: &[speleo_hal::hdl32e::Point],
 ) -> std::io::Result<()> {
-    use crate::record::cdr::CdrWriter;
     const STRIDE: u32 = 20;
     const FLOAT32: u8 = 7;
     const UINT8: u8 = 2;
@@ -262,35 +180,6 @@ pub(crate) fn write_cloud(
     c.bool(true)
 }
 
-#[derive(Serialize)]
-pub(crate) struct StopJson {
-    holding: bool,
-    safe_mode: bool,
-    no_command: bool,
-    stale_command: bool,
-    heartbeat_lost: u8,
-    fault: u8,
-    not_ready: u8,
-    sdo_refused: u8,
-    bad_command: bool,
-}
-
-impl From<speleo_hal::canopen::supervisor::StopReasons> for StopJson {
-    fn from(r: speleo_hal::canopen::supervisor::StopReasons) -> Self {
-        StopJson {
-            holding: r.any(),
-            safe_mode: r.safe_mode,
-            no_command: r.no_command,
-            stale_command: r.stale_command,
-            heartbeat_lost: r.heartbeat_lost,
-            fault: r.fault,
-            not_ready: r.not_ready,
-            sdo_refused: r.sdo_refused,
-            bad_command: r.bad_command,
-        }
-    }
-}
-
 pub fn nmt_name(s: speleo_hal::canopen::NmtState) -> &'static str {
     use speleo_hal::canopen::NmtState::*;
     match s {
@@ -317,7 +206,7 @@ pub fn state_name(s: speleo_hal::cia402::DriveState) -> &'static str {
 }
 
 /// The drives' feedback `d` and why the output holds the wheels (`stop`)
-/// as one `/drives` message.
+/// as one `speleo_msgs/DriveFeedback`.
 pub(crate) fn emit_drives(
     tap: &mut RecorderTap,
     frame: u64,
@@ -325,65 +214,95 @@ pub(crate) fn emit_drives(
     d: &Published<DrivesState>,
     stop: StopReasons,
 ) {
-    let wheels = SeqOf::new(d.value.nodes.iter().map(|n| WheelJson {
-        state: state_name(n.state),
-        statusword: n.statusword,
-        velocity_rad_s: n.velocity as f64 * 1e-3,
-        position_counts: n.position,
-        torque_nm: n.torque.map(speleo_hal::cia402::torque_nm),
-        nmt: n.nmt.map_or("unknown", nmt_name),
-        profile_velocity_mode: n.mode_set,
-        emergencies: n.emergencies,
-        last_emergency: n.last_emergency,
-    }));
-    #[derive(Serialize)]
-    struct Drives<S> {
-        wheels: S,
-        stop: StopJson,
-    }
-    let msg = Stamped {
-        timestamp: tap.time(d.stamp_ns),
-        body: Drives {
-            wheels,
-            stop: StopJson::from(stop),
-        },
-    };
+    let stamp = tap.time(d.stamp_ns);
     tap.emit(Topic::Drives, frame, now, d.stamp_ns, |w| {
-        serde_json::to_writer(w, &msg)
+        let mut c = CdrWriter::new(w)?;
+        header(&mut c, stamp, "base_link")?;
+        for n in &d.value.nodes {
+            c.string(state_name(n.state))?;
+            c.u16(n.statusword)?;
+            c.f64(n.velocity as f64 * 1e-3)?;
+            c.i32(n.position)?;
+            let torque = n.torque.map(speleo_hal::cia402::torque_nm);
+            c.bool(torque.is_some())?;
+            c.f64(torque.unwrap_or(0.0))?;
+            c.string(n.nmt.map_or("unknown", nmt_name))?;
+            c.bool(n.mode_set)?;
+            c.u32(n.emergencies)?;
+            c.u16(n.last_emergency)?;
+        }
+        c.bool(stop.any())?;
+        c.bool(stop.safe_mode)?;
+        c.bool(stop.no_command)?;
+        c.bool(stop.stale_command)?;
+        c.u8(stop.heartbeat_lost)?;
+        c.u8(stop.fault)?;
+        c.u8(stop.not_ready)?;
+        c.u8(stop.sdo_refused)?;
+        c.bool(stop.bad_command)
     });
 }
 
-/// The health report `h` with the executive's mode, the IMU's
-/// configuration state and the counters as one `/health` message.
-pub(crate) fn emit_health(
+/// One IMU sample as `sensor_msgs/Imu` (frame `imu`, covariances unknown)
+/// and the fields it has no place for as `speleo_msgs/ImuStatus`.
+pub(crate) fn emit_imu(tap: &mut RecorderTap, (frame, now): (u64, u64), s: &Published<ImuSample>) {
+    let v = &s.value;
+    let stamp = tap.time(s.stamp_ns);
+    tap.emit(Topic::Imu, frame, now, s.stamp_ns, |w| {
+        let mut c = CdrWriter::new(w)?;
+        header(&mut c, stamp, "imu")?;
+        quaternion(&mut c, v.orientation)?;
+        unknown_covariance(&mut c, 9)?;
+        vector3(&mut c, v.rate_of_turn)?;
+        unknown_covariance(&mut c, 9)?;
+        vector3(&mut c, v.acceleration)?;
+        unknown_covariance(&mut c, 9)
+    });
+    tap.emit(Topic::ImuStatus, frame, now, s.stamp_ns, |w| {
+        let mut c = CdrWriter::new(w)?;
+        header(&mut c, stamp, "imu")?;
+        c.u16(v.packet_counter)?;
+        c.u32(v.sample_time_fine)?;
+        c.u32(v.status_word)
+    });
+}
+
+/// The `n` CAN frames queued for the drives in this frame, as
+/// `speleo_msgs/CanFrames`.
+pub(crate) fn emit_can_tx<'f>(
     tap: &mut RecorderTap,
     (frame, now): (u64, u64),
-    h: &Published<HealthReport>,
-    mode: Mode,
-    imu_config: ConfigState,
-    counters: &Counters,
+    n: usize,
+    frames: impl Iterator<Item = &'f CanFrame>,
 ) {
-    let mask = h.value.stale_mask;
-    let msg = HealthJson {
-        timestamp: tap.time(h.stamp_ns),
-        mode: if h.value.safe_mode {
-            "safe"
-        } else {
-            mode_name(mode)
-        },
-        imu_config: imu_config_name(imu_config),
-        stale: SeqOf::new(
-            SOURCE_NAMES
-                .iter()
-                .enumerate()
-                .filter(move |(i, _)| mask & (1 << i) != 0)
-                .map(|(_, n)| *n),
-        ),
-        findings: SeqOf::new(finding::names(h.value.findings)),
-        drive_faults: h.value.drive_faults,
-        counters: CountersJson::from(counters),
-    };
-    tap.emit(Topic::Health, frame, now, h.stamp_ns, |w| {
-        serde_json::to_writer(w, &msg)
+    let stamp = tap.time(now);
+    tap.emit(Topic::CanTx, frame, now, now, |w| {
+        let mut c = CdrWriter::new(w)?;
+        header(&mut c, stamp, "can")?;
+        c.sequence_len(n)?;
+        for f in frames.take(n) {
+            c.u32(f.id)?;
+            c.bytes(f.payload())?;
+        }
+        Ok(())
+    });
+}
+
+/// The path follower's command as `speleo_msgs/WheelCommand`.
+pub(crate) fn emit_wheel_command(
+    tap: &mut RecorderTap,
+    (frame, now): (u64, u64),
+    c: &Published<speleo_messages::WheelCommand>,
+) {
+    let stamp = tap.time(c.stamp_ns);
+    let v = &c.value;
+    tap.emit(Topic::WheelCommand, frame, now, c.stamp_ns, |w| {
+        let mut c = CdrWriter::new(w)?;
+        header(&mut c, stamp, "base_link")?;
+        c.f64(v.speed)?;
+        c.f64(v.yaw_rate)?;
+        v.wheel_speeds.iter().try_for_each(|s| c.f64(*s))?;
+        c.u32(v.segment)?;
+        c.bool(v.done)
     });
 }

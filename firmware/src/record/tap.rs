@@ -92,24 +92,23 @@ impl RecorderTap {
         self.epoch_ns
     }
 
-    /// A time relative to start as a Foxglove time.
+    /// A time relative to start as a Unix time.
     pub fn time(&self, ns: u64) -> Time {
         Time::from_ns(self.epoch_ns + ns)
     }
 
     /// Record one message. `log_ns` is the frame time, `publish_ns` the time
-    /// of validity of the data, both relative to start; `body` writes the JSON.
+    /// of validity of the data, both relative to start; `body` writes the
+    /// message (CDR).
     pub fn emit(
         &mut self,
         topic: Topic,
         frame: u64,
         log_ns: u64,
         publish_ns: u64,
-        body: impl FnOnce(&mut Bounded<'_>) -> serde_json::Result<()>,
+        body: impl FnOnce(&mut Bounded<'_>) -> std::io::Result<()>,
     ) {
-        self.emit_sized(topic, frame, log_ns, publish_ns, false, |w| {
-            body(w).map_err(std::io::Error::other)
-        });
+        self.emit_sized(topic, frame, log_ns, publish_ns, false, body);
     }
 
     /// Record one message in a buffer of the large pool (point clouds).

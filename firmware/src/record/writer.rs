@@ -16,10 +16,12 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::thread::{JoinHandle, Thread};
 use std::time::Duration;
 
 use super::topics::Topic;
+use crate::record::live::LiveServer;
 
 /// Capacity of one pooled message buffer.
 pub const MESSAGE_CAPACITY: usize = 16 * 1024;
@@ -40,9 +42,12 @@ pub enum WriterMsg {
     Finish(BTreeMap<String, String>),
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct WriterOptions {
-    pub path: PathBuf,
+    /// The MCAP file; `None` when the messages only go to the live view.
+    pub path: Option<PathBuf>,
+    /// The live view, offered every message after it is written.
+    pub live: Option<Arc<LiveServer>>,
     pub zstd: bool,
     pub chunk_size: u64,
     pub pool: usize,
@@ -70,17 +75,21 @@ pub struct WriterHandle {
 /// Longest nap of a side waiting for the other (it is normally unparked).
 pub const NAP: Duration = Duration::from_millis(2);
 
-fn open(opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
-    let file = File::create(&opts.path)
-        .map_err(|e| format!("cannot create {}: {e}", opts.path.display()))?;
-    start(file, opts)
+fn open(path: &Path, opts: &WriterOptions) -> Result<mcap::Writer<File>, String> {
+    let file = File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+    start(file, path, opts)
 }
 
 /// Start a recording on `sink`: header, schemas, channels and the run's
 /// metadata.
-fn start<W: Write + Seek>(sink: W, opts: &WriterOptions) -> Result<mcap::Writer<W>, String> {
+fn start<W: Write + Seek>(
+    sink: W,
+    path: &Path,
+    opts: &WriterOptions,
+) -> Result<mcap::Writer<W>, String> {
     let mut w = mcap::WriteOptions::new()
-        .profile("")
+        // rosbag2's profile: ROS 2 tools open the file as a bag.
+        .profile("ros2")
         .library(concat!("speleo ", env!("CARGO_PKG_VERSION")))
         .compression(opts.zstd.then_some(mcap::Compression::Zstd))
         .chunk_size(Some(opts.chunk_size))
@@ -92,7 +101,7 @@ fn start<W: Write + Seek>(sink: W, opts: &WriterOptions) -> Result<mcap::Writer<
         .disable_seeking(true)
         .compression_threads(0)
         .create(sink)
-        .map_err(|e| format!("{}: {e}", opts.path.display()))?;
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let mut schema_ids: BTreeMap<&str, u16> = BTreeMap::new();
     for t in Topic::ALL {
         let i = t.info();
@@ -108,6 +117,10 @@ fn start<W: Write + Seek>(sink: W, opts: &WriterOptions) -> Result<mcap::Writer<
         };
         let mut meta = BTreeMap::new();
         meta.insert("speleo.role".to_string(), i.role.as_str().to_string());
+        meta.insert(
+            "offered_qos_profiles".to_string(),
+            i.offered_qos().to_string(),
+        );
         w.add_channel_with_id(t.channel_id(), sid, i.name, i.message_encoding(), &meta)
             .map_err(|e| e.to_string())?;
     }
@@ -123,7 +136,7 @@ fn start<W: Write + Seek>(sink: W, opts: &WriterOptions) -> Result<mcap::Writer<
 /// returns, so a bad path is reported at start-up. Call it on the thread that
 /// will record: that thread is unparked when buffers come back.
 pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
-    let mut w = open(&opts)?;
+    let mut w = opts.path.as_deref().map(|p| open(p, &opts)).transpose()?;
     // One more slot than buffers, for the closing message.
     let (tx, rx) = rtrb::RingBuffer::<WriterMsg>::new(opts.pool + opts.large_pool + 1);
     let (mut pool_tx, pool_rx) = rtrb::RingBuffer::<Vec<u8>>::new(opts.pool);
@@ -134,11 +147,21 @@ pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
     for _ in 0..opts.large_pool {
         let _ = large_tx.push(Vec::with_capacity(opts.large_capacity));
     }
-    let path = opts.path.clone();
+    let path = opts.path.clone().unwrap_or_default();
+    let live = opts.live.clone();
     let recorder = std::thread::current();
     let thread = std::thread::Builder::new()
         .name("mcap-writer".into())
-        .spawn(move || run(&mut w, &path, rx, [pool_tx, large_tx], recorder))
+        .spawn(move || {
+            run(
+                w.as_mut(),
+                &path,
+                live.as_deref(),
+                rx,
+                [pool_tx, large_tx],
+                recorder,
+            )
+        })
         .map_err(|e| format!("cannot start the writer thread: {e}"))?;
     Ok(WriterHandle {
         tx,
@@ -149,8 +172,9 @@ pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
 }
 
 fn run(
-    w: &mut mcap::Writer<File>,
+    mut w: Option<&mut mcap::Writer<File>>,
     path: &Path,
+    live: Option<&LiveServer>,
     mut rx: rtrb::Consumer<WriterMsg>,
     mut pools: [rtrb::Producer<Vec<u8>>; 2],
     recorder: Thread,
@@ -175,7 +199,12 @@ fn run(
                     log_time: m.log_time,
                     publish_time: m.publish_time,
                 };
-                w.write_to_known_channel(&header, &m.buf).map_err(err)?;
+                if let Some(w) = w.as_mut() {
+                    w.write_to_known_channel(&header, &m.buf).map_err(err)?;
+                }
+                if let Some(live) = live {
+                    live.offer(m.topic, m.log_time, &m.buf);
+                }
                 stats.messages += 1;
                 stats.bytes += m.buf.len() as u64;
                 // Each pool ring has room for all of its buffers.
@@ -190,6 +219,9 @@ fn run(
     }
     // Reached on Finish, or when the sender went away (error paths): close
     // the file properly either way.
+    let Some(w) = w else {
+        return Ok(stats);
+    };
     if !summary.is_empty() {
         w.write_metadata(&mcap::records::Metadata {
             name: "speleo.summary".into(),
@@ -243,7 +275,8 @@ mod tests {
     /// A recording of a few chunks of incompressible output messages.
     fn record(chunk_size: u64) -> AppendCheck {
         let opts = WriterOptions {
-            path: PathBuf::from("memory.mcap"),
+            path: Some(PathBuf::from("memory.mcap")),
+            live: None,
             zstd: true,
             chunk_size,
             pool: 1,
@@ -251,7 +284,7 @@ mod tests {
             large_capacity: 0,
             run_metadata: BTreeMap::from([("epoch_ns".to_string(), "0".to_string())]),
         };
-        let mut w = start(AppendCheck::default(), &opts).expect("start");
+        let mut w = start(AppendCheck::default(), Path::new("memory.mcap"), &opts).expect("start");
         let mut x: u32 = 0x2545_F491;
         for seq in 0..200u32 {
             let data: Vec<u8> = (0..300)

@@ -53,6 +53,7 @@ impl Task<Bus> for IoTask<'_, '_> {
         }
         let errors = [lidar, imu, can];
         bus.counters.hal_errors += errors.iter().filter(|e| **e).count() as u64;
+        bus.counters.can_transport_dropped = hw.can().dropped_input();
         bus.counters.raw_dropped = bus.raw.dropped;
         bus.counters.can_tx_dropped = bus.can_tx.dropped();
     }

@@ -1,23 +1,26 @@
 //! Taps every mailbox once per frame and records what is new: the frame's raw
 //! inputs, the CAN frames queued for the drives, IMU samples, drive feedback,
-//! odometry (pose and transform), wheel commands, health, and the path.
+//! odometry, the SLAM pose, the frame tree (map -> odom -> base_link ->
+//! sensors), wheel commands, diagnostics, the route and the planner's path.
 
 use std::cell::RefCell;
 
-use serde::Serialize;
+use nalgebra::Isometry3;
 use speleo_scheduler::{Context, Task};
 
 use crate::bus::Bus;
-use crate::record::encode::{
-    CanFrameJson, FrameTransform, ImuSampleJson, Pose, PoseInFrame, Quaternion, SeqOf,
-    WheelCommandJson,
-};
+use crate::record::diagnostics::emit_health;
 use crate::record::messages::{
-    emit_drives, emit_health, emit_line, raw_topic, write_cloud, SceneLine, Stamped,
+    emit_can_tx, emit_drives, emit_imu, emit_marker_line, emit_path, emit_wheel_command, raw_topic,
+    write_cloud, MarkerLine,
+};
+use crate::record::motion::{
+    body_velocity, emit_fixed_frames, emit_odometry, emit_slam_pose, isometry,
 };
 use crate::record::{RecorderTap, Topic};
 
-/// The path is re-sent this often (frames) so a viewer that seeks finds it.
+/// The route and the fixed frames are re-sent this often (frames) so a
+/// viewer that seeks finds them.
 pub const PLAN_EVERY_FRAMES: u64 = 100;
 
 pub struct RecorderTask<'r> {
@@ -36,6 +39,8 @@ pub struct RecorderTask<'r> {
     cloud_every: u64,
     /// base_link -> lidar: translation and (w, x, y, z) rotation.
     lidar_mount: ([f64; 3], [f64; 4]),
+    /// The previous odometry pose and its stamp, for the velocity.
+    last_odom: Option<(u64, Isometry3<f64>)>,
 }
 
 impl<'r> RecorderTask<'r> {
@@ -62,6 +67,7 @@ impl<'r> RecorderTask<'r> {
             health_seen: 0,
             plan,
             plan_looped,
+            last_odom: None,
         }
     }
 
@@ -69,6 +75,43 @@ impl<'r> RecorderTask<'r> {
     pub fn with_cloud_every(mut self, n: u32) -> Self {
         self.cloud_every = n.max(1) as u64;
         self
+    }
+}
+
+impl RecorderTask<'_> {
+    /// The odometry pose, with the velocity since the previous one.
+    fn record_odometry(&mut self, tap: &mut RecorderTap, frame: u64, now: u64, bus: &Bus) {
+        let Some(o) = bus.odom.newer_than(self.odom_seen) else {
+            return;
+        };
+        self.odom_seen = o.seq;
+        let here = isometry(o.value.position, o.value.orientation);
+        let velocity = match &self.last_odom {
+            Some((t, before)) => body_velocity(before, &here, (o.stamp_ns - t) as f64 * 1e-9),
+            None => ([0.0; 3], [0.0; 3]),
+        };
+        self.last_odom = Some((o.stamp_ns, here));
+        let pose = (o.value.position, o.value.orientation);
+        emit_odometry(tap, (frame, now, o.stamp_ns), pose, velocity);
+    }
+
+    /// The SLAM pose, once SLAM has a map (before its first keyframe it
+    /// repeats the odometry, and map and odom coincide).
+    fn record_slam(&mut self, tap: &mut RecorderTap, frame: u64, now: u64, bus: &Bus) {
+        let Some(o) = bus.slam.newer_than(self.slam_seen) else {
+            return;
+        };
+        self.slam_seen = o.seq;
+        if o.value.keyframes == 0 {
+            return;
+        }
+        // The odometry pose SLAM's pose was computed from this frame.
+        let odom = bus
+            .odom
+            .get()
+            .map(|d| (d.value.position, d.value.orientation));
+        let map_base = (o.value.position, o.value.orientation);
+        emit_slam_pose(tap, (frame, now, o.stamp_ns), map_base, odom);
     }
 }
 
@@ -96,40 +139,12 @@ impl Task<Bus> for RecorderTask<'_> {
         }
 
         if !bus.can_tx.is_empty() {
-            let ts = tap.time(now);
-            let frames = SeqOf::new(bus.can_tx.iter().map(|f| CanFrameJson {
-                id: f.id,
-                data: f.payload(),
-            }));
-            #[derive(Serialize)]
-            struct Frames<S> {
-                frames: S,
-            }
-            let msg = Stamped {
-                timestamp: ts,
-                body: Frames { frames },
-            };
-            tap.emit(Topic::CanTx, frame, now, now, |w| {
-                serde_json::to_writer(w, &msg)
-            });
+            emit_can_tx(&mut tap, (frame, now), bus.can_tx.len(), bus.can_tx.iter());
         }
 
         let tap_ref = &mut *tap;
-        bus.imu.read_since(&mut self.imu_cursor, |s| {
-            let v = &s.value;
-            let msg = ImuSampleJson {
-                timestamp: tap_ref.time(s.stamp_ns),
-                packet_counter: v.packet_counter,
-                sample_time_fine: v.sample_time_fine,
-                orientation: Quaternion::wxyz(v.orientation),
-                acceleration: v.acceleration.into(),
-                rate_of_turn: v.rate_of_turn.into(),
-                status_word: v.status_word,
-            };
-            tap_ref.emit(Topic::Imu, frame, now, s.stamp_ns, |w| {
-                serde_json::to_writer(w, &msg)
-            });
-        });
+        bus.imu
+            .read_since(&mut self.imu_cursor, |s| emit_imu(tap_ref, (frame, now), s));
 
         if let Some(d) = bus.drives.newer_than(self.drives_seen) {
             self.drives_seen = d.seq;
@@ -148,77 +163,17 @@ impl Task<Bus> for RecorderTask<'_> {
             tap.emit_large(Topic::Cloud, frame, now, c.stamp_ns, |w| {
                 write_cloud(w, ts, points)
             });
-            let (xyz, q) = self.lidar_mount;
-            let tf = FrameTransform {
-                timestamp: ts,
-                parent_frame_id: "base_link",
-                child_frame_id: "lidar",
-                translation: xyz.into(),
-                rotation: Quaternion::wxyz(q),
-            };
-            tap.emit(Topic::Tf, frame, now, c.stamp_ns, |w| {
-                serde_json::to_writer(w, &tf)
-            });
         }
 
-        if let Some(o) = bus.odom.newer_than(self.odom_seen) {
-            self.odom_seen = o.seq;
-            let ts = tap.time(o.stamp_ns);
-            let pose = PoseInFrame {
-                timestamp: ts,
-                frame_id: "odom",
-                pose: Pose {
-                    position: o.value.position.into(),
-                    orientation: Quaternion::wxyz(o.value.orientation),
-                },
-            };
-            tap.emit(Topic::Odom, frame, now, o.stamp_ns, |w| {
-                serde_json::to_writer(w, &pose)
-            });
-            let tf = FrameTransform {
-                timestamp: ts,
-                parent_frame_id: "odom",
-                child_frame_id: "base_link",
-                translation: o.value.position.into(),
-                rotation: Quaternion::wxyz(o.value.orientation),
-            };
-            tap.emit(Topic::Tf, frame, now, o.stamp_ns, |w| {
-                serde_json::to_writer(w, &tf)
-            });
+        if frame.is_multiple_of(PLAN_EVERY_FRAMES) {
+            emit_fixed_frames(&mut tap, (frame, now), self.lidar_mount);
         }
-
-        if let Some(o) = bus.slam.newer_than(self.slam_seen) {
-            self.slam_seen = o.seq;
-            // Only once SLAM has a map (before its first keyframe it repeats
-            // the odometry).
-            if o.value.keyframes > 0 {
-                let pose = PoseInFrame {
-                    timestamp: tap.time(o.stamp_ns),
-                    frame_id: "map",
-                    pose: Pose {
-                        position: o.value.position.into(),
-                        orientation: Quaternion::wxyz(o.value.orientation),
-                    },
-                };
-                tap.emit(Topic::SlamPose, frame, now, o.stamp_ns, |w| {
-                    serde_json::to_writer(w, &pose)
-                });
-            }
-        }
+        self.record_odometry(&mut tap, frame, now, bus);
+        self.record_slam(&mut tap, frame, now, bus);
 
         if let Some(c) = bus.command.newer_than(self.command_seen) {
             self.command_seen = c.seq;
-            let msg = WheelCommandJson {
-                timestamp: tap.time(c.stamp_ns),
-                speed: c.value.speed,
-                yaw_rate: c.value.yaw_rate,
-                wheel_speeds: c.value.wheel_speeds,
-                segment: c.value.segment,
-                done: c.value.done,
-            };
-            tap.emit(Topic::WheelCommand, frame, now, c.stamp_ns, |w| {
-                serde_json::to_writer(w, &msg)
-            });
+            emit_wheel_command(&mut tap, (frame, now), c);
         }
 
         if let Some(h) = bus.health.newer_than(self.health_seen) {
@@ -227,42 +182,25 @@ impl Task<Bus> for RecorderTask<'_> {
             emit_health(&mut tap, (frame, now), h, cx.mode, bus.imu_config, counters);
         }
 
-        if frame % PLAN_EVERY_FRAMES == 0 {
+        if frame.is_multiple_of(PLAN_EVERY_FRAMES) {
             let route = self.plan.iter().map(|p| [p[0], p[1], 0.0]);
-            let looped = self.plan_looped;
-            let line = SceneLine {
+            let line = MarkerLine {
                 frame_id: "odom",
-                id: "plan",
-                looped,
+                ns: "route",
+                looped: self.plan_looped,
                 color: [0.1, 0.8, 0.3],
             };
-            emit_line(&mut tap, Topic::Plan, frame, now, now, &line, route);
+            emit_marker_line(&mut tap, Topic::Plan, (frame, now, now), &line, route);
         }
         if let Some(p) = bus.plan.newer_than(self.planner_seen) {
             self.planner_seen = p.seq;
             // The planner's path over the ground, in the SLAM map frame.
-            let poses = p
-                .value
-                .poses
-                .iter()
-                .map(|q| [q[0] as f64, q[1] as f64, q[2] as f64]);
-            let line = SceneLine {
-                frame_id: "map",
-                id: "planner_path",
-                looped: false,
-                color: if p.value.optimal {
-                    [0.2, 0.4, 1.0]
-                } else {
-                    [1.0, 0.6, 0.1]
-                },
-            };
-            emit_line(
+            let poses = p.value.poses.iter().map(|q| (*q).map(f64::from));
+            emit_path(
                 &mut tap,
                 Topic::PlannerPath,
-                frame,
-                now,
-                p.stamp_ns,
-                &line,
+                (frame, now, p.stamp_ns),
+                "map",
                 poses,
             );
         }

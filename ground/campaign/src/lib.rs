@@ -7,6 +7,7 @@
 //! ([`runner`], [`outcome`]), and judged ([`success`], [`summary`],
 //! [`stats`], [`plot`]).
 
+pub mod chart;
 pub mod manifest;
 pub mod matrix;
 pub mod outcome;

@@ -5,15 +5,9 @@
 //! titles and a legend on every panel.
 
 use std::collections::BTreeMap;
-use std::io::BufWriter;
 use std::path::Path;
 
-use embedded_graphics::mono_font::ascii::{FONT_7X13, FONT_9X15_BOLD};
-use embedded_graphics::mono_font::MonoTextStyle;
-use embedded_graphics::pixelcolor::Rgb888;
-use embedded_graphics::prelude::*;
-use embedded_graphics::primitives::{Circle, Line, PrimitiveStyle, Rectangle};
-use embedded_graphics::text::{Alignment, Text};
+use crate::chart::{tick_step, Alignment, Chart, Colour as Rgb888, Point, Size, BLACK, GRID};
 
 use crate::success::FailureCause;
 use crate::summary::{CaseRow, Summary};
@@ -37,9 +31,7 @@ const MAP_MAX_H: i32 = 420;
 const MAP_MIN_H: i32 = 140;
 const HIST_H: i32 = 320;
 
-const BLACK: Rgb888 = Rgb888::new(0, 0, 0);
 const FLOOR: Rgb888 = Rgb888::new(205, 205, 205);
-const GRID: Rgb888 = Rgb888::new(235, 235, 235);
 const PASSED: Rgb888 = Rgb888::new(30, 150, 60);
 
 /// A failure's colour on the map and in the legend.
@@ -52,105 +44,6 @@ fn cause_colour(c: FailureCause) -> Rgb888 {
         FailureCause::OutOfTime => Rgb888::new(30, 90, 210),
         FailureCause::NotHome => Rgb888::new(0, 170, 190),
         FailureCause::GaveUpEarly => Rgb888::new(200, 170, 0),
-    }
-}
-
-struct Canvas {
-    w: u32,
-    h: u32,
-    rgb: Vec<u8>,
-}
-
-impl OriginDimensions for Canvas {
-    fn size(&self) -> Size {
-        Size::new(self.w, self.h)
-    }
-}
-
-impl DrawTarget for Canvas {
-    type Color = Rgb888;
-    type Error = core::convert::Infallible;
-
-    fn draw_iter<I: IntoIterator<Item = Pixel<Rgb888>>>(
-        &mut self,
-        px: I,
-    ) -> Result<(), Self::Error> {
-        for Pixel(p, c) in px {
-            if p.x >= 0 && p.y >= 0 && (p.x as u32) < self.w && (p.y as u32) < self.h {
-                let i = 3 * (p.y as usize * self.w as usize + p.x as usize);
-                self.rgb[i..i + 3].copy_from_slice(&[c.r(), c.g(), c.b()]);
-            }
-        }
-        Ok(())
-    }
-}
-
-impl Canvas {
-    fn text(&mut self, s: &str, at: Point, align: Alignment) {
-        let style = MonoTextStyle::new(&FONT_7X13, BLACK);
-        let _ = Text::with_alignment(s, at, style, align).draw(self);
-    }
-
-    fn title(&mut self, s: &str, at: Point) {
-        let style = MonoTextStyle::new(&FONT_9X15_BOLD, BLACK);
-        let _ = Text::new(s, at, style).draw(self);
-    }
-
-    fn line(&mut self, a: Point, b: Point, c: Rgb888, w: u32) {
-        let _ = Line::new(a, b)
-            .into_styled(PrimitiveStyle::with_stroke(c, w))
-            .draw(self);
-    }
-
-    fn rect(&mut self, at: Point, size: Size, c: Rgb888) {
-        let _ = Rectangle::new(at, size)
-            .into_styled(PrimitiveStyle::with_fill(c))
-            .draw(self);
-    }
-
-    /// A panel's x and y axes from its top-left corner of the plot area
-    /// (`pw` by `ph` px), each named at its end.
-    fn axes(&mut self, top: i32, pw: i32, ph: i32, x_name: &str, y_name: &str) {
-        let (left, bottom) = (MARGIN_L, top + ph);
-        self.line(
-            Point::new(left, bottom),
-            Point::new(left + pw, bottom),
-            BLACK,
-            1,
-        );
-        self.line(Point::new(left, top), Point::new(left, bottom), BLACK, 1);
-        self.text(x_name, Point::new(left + pw, bottom + 33), Alignment::Right);
-        self.text(y_name, Point::new(left - 6, top - 24), Alignment::Right);
-    }
-
-    fn marker(&mut self, centre: Point, d: u32, c: Rgb888) {
-        let at = centre - Point::new(d as i32 / 2, d as i32 / 2);
-        let _ = Circle::new(at, d)
-            .into_styled(PrimitiveStyle::with_fill(c))
-            .draw(self);
-        let _ = Circle::new(at, d)
-            .into_styled(PrimitiveStyle::with_stroke(BLACK, 1))
-            .draw(self);
-    }
-}
-
-/// A round step for axis ticks: about `n` over `span`.
-fn tick_step(span: f64, n: f64) -> f64 {
-    let raw = (span / n).max(1e-9);
-    let mag = 10f64.powf(raw.log10().floor());
-    [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| *s >= raw)
-        .unwrap_or(10.0 * mag)
-}
-
-/// A legend row: coloured swatches with their labels, from `x`.
-fn legend(c: &mut Canvas, mut x: i32, y: i32, items: &[(Rgb888, String)]) {
-    for (colour, label) in items {
-        c.marker(Point::new(x + 6, y - 4), 11, *colour);
-        c.text(label, Point::new(x + 16, y), Alignment::Left);
-        x += 16 + 7 * label.len() as i32 + 22;
     }
 }
 
@@ -175,11 +68,7 @@ pub fn write_plot(path: &Path, s: &Summary, maps: &[FloorMap]) -> Result<(), Str
         })
         .collect();
     let h = 60 + heights.iter().map(|h| h + PANEL_GAP + 20).sum::<i32>() + HIST_H + PANEL_GAP + 40;
-    let mut c = Canvas {
-        w: WIDTH,
-        h: h as u32,
-        rgb: vec![255; (WIDTH * h as u32 * 3) as usize],
-    };
+    let mut c = Chart::new(WIDTH, h as u32);
     c.title(
         &format!(
             "Campaign {}: {} of {} missions succeeded ({:.0} %, 95 % CI {:.0}-{:.0} %){}",
@@ -204,20 +93,14 @@ pub fn write_plot(path: &Path, s: &Summary, maps: &[FloorMap]) -> Result<(), Str
             format!("{} ({})", f.cause.name(), f.cases.len()),
         ));
     }
-    legend(&mut c, MARGIN_L, 48, &items);
+    c.legend(MARGIN_L, 48, &items);
     let mut top = 60 + PANEL_GAP / 2;
     for ((m, e), ph) in maps.iter().zip(&extents).zip(&heights) {
         draw_map(&mut c, s, m, *e, top, *ph);
         top += ph + PANEL_GAP + 20;
     }
     draw_histogram(&mut c, s, top + 20);
-    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let mut enc = png::Encoder::new(BufWriter::new(file), c.w, c.h);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()
-        .and_then(|mut w| w.write_image_data(&c.rgb))
-        .map_err(|e| format!("{}: {e}", path.display()))
+    c.save(path)
 }
 
 /// The map's extent (x0, x1, y0, y1) over its floor and its cases' ends.
@@ -232,7 +115,7 @@ fn extent(m: &FloorMap, s: &Summary) -> Option<[f64; 4]> {
     e.map(|[x0, x1, y0, y1]| [x0 - 1.0, x1 + 1.0, y0 - 1.0, y1 + 1.0])
 }
 
-fn draw_map(c: &mut Canvas, s: &Summary, m: &FloorMap, e: Option<[f64; 4]>, top: i32, ph: i32) {
+fn draw_map(c: &mut Chart, s: &Summary, m: &FloorMap, e: Option<[f64; 4]>, top: i32, ph: i32) {
     c.title(
         &format!("{}: where each mission ended, seen from above", m.title),
         Point::new(MARGIN_L, top - 8),
@@ -288,7 +171,7 @@ fn draw_map(c: &mut Canvas, s: &Summary, m: &FloorMap, e: Option<[f64; 4]>, top:
         // The cell's corner nearest the origin of the picture.
         c.rect(to_px(x - half, y + half), Size::new(dot, dot), FLOOR);
     }
-    c.axes(top, pw, ph, "x, m", "y, m");
+    c.axes((MARGIN_L, top), pw, ph, "x, m", "y, m");
     // Passed first, so a failure is drawn over a success at the same place.
     let mut rows: Vec<&CaseRow> = m.cases.iter().filter_map(|&i| s.rows.get(i)).collect();
     rows.sort_by_key(|r| r.failure.is_some());
@@ -299,7 +182,7 @@ fn draw_map(c: &mut Canvas, s: &Summary, m: &FloorMap, e: Option<[f64; 4]>, top:
     }
 }
 
-fn draw_histogram(c: &mut Canvas, s: &Summary, top: i32) {
+fn draw_histogram(c: &mut Chart, s: &Summary, top: i32) {
     c.title(
         "Coverage of the reachable floor, whole-cave missions",
         Point::new(MARGIN_L, top - 8),
@@ -380,7 +263,7 @@ fn draw_histogram(c: &mut Canvas, s: &Summary, top: i32) {
             Alignment::Center,
         );
     }
-    c.axes(top, pw, ph, "coverage", "missions");
+    c.axes((MARGIN_L, top), pw, ph, "coverage", "missions");
     c.text(
         "colours as in the legend at the top",
         Point::new(MARGIN_L + pw, top - 8),

@@ -383,3 +383,61 @@ pub struct DecodeCanArgs {
     #[arg(value_name = "FILE.log")]
     pub file: PathBuf,
 }
+
+#[derive(Args, Debug)]
+pub struct TwinArgs {
+    /// The simulated hardware (`[sim]`, `[rover]`, `[lidar]`) and where its
+    /// wires go (`[twin]`); the defaults when absent.
+    #[arg(long, value_name = "twin.toml")]
+    pub config: Option<PathBuf>,
+    /// The world (as `sim --world`).
+    #[arg(long)]
+    pub world: Option<String>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// The sensors' noise streams, when they differ from the world's seed.
+    #[arg(long)]
+    pub noise_seed: Option<u64>,
+    /// Stop after this many seconds; otherwise a signal stops it.
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Record the true pose and every byte sent and received (MCAP).
+    #[arg(long, value_name = "OUT.mcap")]
+    pub record: Option<PathBuf>,
+    /// Write the twin's report as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
+    /// Unplug the LiDAR at AT seconds for SECONDS (repeatable): no packets.
+    #[arg(long, value_name = "AT:SECONDS")]
+    pub unplug_lidar: Vec<String>,
+}
+
+#[derive(Args, Debug)]
+pub struct HilArgs {
+    /// The twin's world (as `sim --world`).
+    #[arg(long)]
+    pub world: Option<String>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// How long the bench runs, s of real time (less when the mission ends
+    /// by itself).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: f64,
+    /// The twin's configuration (`examples/twin.toml`); its defaults when absent.
+    #[arg(long, value_name = "twin.toml")]
+    pub twin_config: Option<PathBuf>,
+    /// The flight binary's configuration; its `[devices]` are pointed at
+    /// the twin's wires.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: Option<PathBuf>,
+    /// Where both write their recordings, reports and the flight binary's
+    /// configuration.
+    #[arg(long, value_name = "DIR", default_value = "hil")]
+    pub out: PathBuf,
+    /// Both reports and the bench's figures in one JSON file.
+    #[arg(long, value_name = "OUT.json")]
+    pub report: Option<PathBuf>,
+    /// Unplug the twin's LiDAR at AT seconds for SECONDS (repeatable).
+    #[arg(long, value_name = "AT:SECONDS")]
+    pub unplug_lidar: Vec<String>,
+}

@@ -49,7 +49,8 @@ pub fn run(capture: &Path, out: &Path, cfg: &Config) -> Result<ImportSummary, Er
     meta.insert("speleo_version".into(), env!("CARGO_PKG_VERSION").into());
     let large = cloud_message_capacity(cfg.lidar.max_points_per_frame);
     let h = writer::spawn(WriterOptions {
-        path: out.to_path_buf(),
+        path: Some(out.to_path_buf()),
+        live: None,
         zstd: cfg.record.compression == "zstd",
         chunk_size: cfg.record.chunk_size_kib as u64 * 1024,
         pool: cfg.record.pool_messages as usize,

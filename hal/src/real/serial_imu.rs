@@ -1,6 +1,6 @@
 //! The Xsens MTi on a serial port, read without blocking.
 
-use std::io::{ErrorKind, Read, Write};
+use std::io::Write;
 use std::time::Duration;
 
 use crate::{Device, HalError, ImuPort, InputSink};
@@ -44,30 +44,11 @@ impl SerialImu {
 
 impl ImuPort for SerialImu {
     fn poll(&mut self, _now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
-        let waiting = self
-            .port
-            .bytes_to_read()
-            .map_err(|e| io(std::io::Error::other(e)))?;
-        if waiting == 0 {
-            return Ok(());
+        let got = super::read_waiting(self.port.as_mut(), &mut self.buf[..]).map_err(io)?;
+        if got > 0 {
+            sink.input(Device::Imu, self.time.now_ns(), &self.buf[..got]);
         }
-        let n = (waiting as usize).min(READ_CHUNK);
-        match self.port.read(&mut self.buf[..n]) {
-            Ok(0) => Ok(()),
-            Ok(got) => {
-                sink.input(Device::Imu, self.time.now_ns(), &self.buf[..got]);
-                Ok(())
-            }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(())
-            }
-            Err(e) => Err(io(e)),
-        }
+        Ok(())
     }
 
     fn write(&mut self, bytes: &[u8]) -> Result<(), HalError> {
@@ -78,29 +59,14 @@ impl ImuPort for SerialImu {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::real::tests_pty::pty;
+    use std::io::Read;
 
     struct Collect(Vec<u8>);
     impl InputSink for Collect {
         fn input(&mut self, d: Device, _t: u64, bytes: &[u8]) {
             assert_eq!(d, Device::Imu);
             self.0.extend_from_slice(bytes);
-        }
-    }
-
-    /// A pseudo-terminal pair stands in for the MTi's serial line.
-    fn pty() -> (std::fs::File, String) {
-        use std::os::fd::FromRawFd;
-        // SAFETY: plain libc calls on a descriptor this function owns; the
-        // name returned by ptsname is copied before any other pty call.
-        unsafe {
-            let master = libc::posix_openpt(libc::O_RDWR | libc::O_NOCTTY);
-            assert!(master >= 0, "posix_openpt");
-            assert_eq!(libc::grantpt(master), 0);
-            assert_eq!(libc::unlockpt(master), 0);
-            let name = std::ffi::CStr::from_ptr(libc::ptsname(master))
-                .to_string_lossy()
-                .into_owned();
-            (std::fs::File::from_raw_fd(master), name)
         }
     }
 
