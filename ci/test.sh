@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The project's test command (README.md): format check, clippy with warnings
 # denied, every test of the workspace, the end-to-end exploration in release,
+# the hardware-in-the-loop bench (twin and `run` in real time, 100 s),
 # a recording read by the ROS 2 Python readers (rosbags, mcap-ros2-support)
 # and stopped by a real SIGINT, a tiny campaign through a real one-node Slurm
 # cluster, then each fuzz target for a bounded time (SPELEO_FUZZ_SECONDS,
@@ -31,6 +32,8 @@ cargo clean --profile dev
 echo "== the autonomous mission end to end (release: minutes, not the debug build's hour)"
 cargo test --release -p speleo-tests --test exploration --locked -- --ignored
 cargo build --release --locked -p speleo-cli
+echo "== the hardware-in-the-loop bench: twin and flight binary in real time on the real wires"
+cargo test --release -p speleo-cli --test hil --locked -- --ignored
 echo "== recordings as ROS 2 tools read them"
 bash ci/ros2-check.sh
 echo "== a campaign on a one-node Slurm cluster (installs slurm-wlm and munge)"

@@ -216,6 +216,7 @@ fn main() -> ExitCode {
         Command::Primitives(a) => solvers::primitives(a),
         Command::Wcet(a) => speleo_tools::wcet::wcet(
             a.scenario.as_deref(),
+            a.recording.as_ref(),
             a.config.as_ref(),
             a.report.as_ref(),
             a.calibrate.as_ref(),

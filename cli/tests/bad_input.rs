@@ -160,3 +160,20 @@ fn a_listing_whose_reader_goes_away_ends_quietly() {
     assert!(out.status.success(), "{:?}: {err}", out.status);
     assert!(!err.contains("panicked"), "{err}");
 }
+
+#[test]
+fn a_twin_with_bad_wires_or_faults_is_refused_before_it_starts() {
+    let d = tempfile::tempdir().expect("tmp");
+    refused(
+        &["twin", "--unplug-lidar", "5", "--duration", "1"],
+        &["--unplug-lidar 5", "AT:SECONDS"],
+    );
+    let cfg = d.path().join("twin.toml");
+    std::fs::write(&cfg, "[twin]\nlidar_to = \"nowhere\"\n").expect("write");
+    refused(
+        &["twin", "--config", path(&cfg)],
+        &["twin.lidar_to", "IP:PORT"],
+    );
+    std::fs::write(&cfg, "[twin]\nimu_lnk = \"/tmp/x\"\n").expect("write");
+    refused(&["twin", "--config", path(&cfg)], &["imu_lnk"]);
+}

@@ -35,6 +35,8 @@ struct Session {
     tap: RefCell<RecorderTap>,
     writer: Option<JoinHandle<Result<WriterStats, String>>>,
     live: Option<Arc<LiveServer>>,
+    /// A replayed real-time run's slips and overruns.
+    replayed_timing: Vec<crate::record::frame_timing::FrameTiming>,
 }
 
 impl Session {
@@ -66,6 +68,7 @@ impl Session {
                 tap: RefCell::new(tap),
                 writer: None,
                 live: None,
+                replayed_timing: Vec::new(),
             });
         }
         let h = writer::spawn(WriterOptions {
@@ -83,19 +86,46 @@ impl Session {
             tap: RefCell::new(tap.with_writer(h.tx, h.pool, h.large_pool, thread, blocking)),
             writer: Some(h.thread),
             live,
+            replayed_timing: Vec::new(),
         })
     }
 
     /// Feed recorded inputs through the drivers and tasks on virtual time,
     /// up to and including frame `last`.
+    /// A run in real time (`real_time`) is replayed with its recorded slips
+    /// and overruns (`timing`), enforced as they were.
     fn replay(
         &mut self,
         cfg: &Config,
-        inputs: Vec<speleo_hal::replay::RecordedInput>,
+        rec: read::Recording,
         last: u64,
         progress: bool,
     ) -> Result<MissionResult, Error> {
-        let mut recorded = ReplayHardware::new(cfg.executive.minor_frame_us, inputs);
+        let real_time = rec.run.get("mode").map(String::as_str) == Some("run");
+        let mut recorded = ReplayHardware::new(cfg.executive.minor_frame_us, rec.inputs);
+        if real_time {
+            self.replayed_timing = rec.timing;
+            let slipped: u64 = self
+                .replayed_timing
+                .iter()
+                .filter(|t| t.frame <= last)
+                .map(|t| t.slipped)
+                .sum();
+            let clock = crate::record::frame_timing::SlippingClock::new(
+                cfg.executive.minor_frame_us,
+                &self.replayed_timing,
+            );
+            return self.drive(
+                cfg,
+                Length::Frames(last + 1 - slipped),
+                Enforcement::Replay,
+                None,
+                crate::signals::stop_flag(),
+                &mut recorded,
+                clock,
+                progress,
+            );
+        }
         // The recorded bytes hold the device faults already; those on the
         // executive (its clock, slow polls) are injected again.
         let faults = crate::faults::parse_all(&cfg.sim.faults)?;
@@ -148,6 +178,7 @@ impl Session {
                 truth,
                 stop,
                 progress: Some(&on_progress),
+                replayed_timing: &self.replayed_timing,
             },
             hw,
             &self.tap,
@@ -350,6 +381,15 @@ fn print_timing(r: &MissionResult) {
             )
         })
         .collect();
+    for e in &r.faults.episodes {
+        eprintln!(
+            "  health: {} from {:.2} s to {}",
+            e.what,
+            e.from_s,
+            e.until_s
+                .map_or("the end".to_string(), |u| format!("{u:.2} s"))
+        );
+    }
     if missed.is_empty() {
         eprintln!("  deadline misses: none; {} frames slipped", r.slips);
     } else {
@@ -825,7 +865,7 @@ pub fn replay_recording(
     out: &Outputs,
     progress: bool,
 ) -> Result<Replayed, Error> {
-    let rec = read::load(log)?;
+    let mut rec = read::load(log)?;
     let cfg_text = rec
         .run
         .get("config")
@@ -848,13 +888,13 @@ pub fn replay_recording(
     let imported = rec.run.get("mode").map(String::as_str) == Some("import");
     let comparer = (!imported).then(|| {
         Comparer::new(
-            rec.expected,
+            std::mem::take(&mut rec.expected),
             last,
             mission::cloud_message_capacity(cfg.lidar.max_points_per_frame),
         )
     });
     let mut session = Session::open(out, &cfg, meta, epoch_ns, comparer, true)?;
-    let mut result = session.replay(&cfg, rec.inputs, last, progress)?;
+    let mut result = session.replay(&cfg, rec, last, progress)?;
     let (divergence, compared) = {
         let t = session.tap.borrow();
         let c = t.comparer();
@@ -954,5 +994,5 @@ pub fn replay_for_maps(log: &Path, progress: bool) -> Result<MissionResult, Erro
     let meta = run_metadata(&cfg, "mesh", epoch_ns);
     let outputs = Outputs::default();
     let mut session = Session::open(&outputs, &cfg, meta, epoch_ns, None, true)?;
-    session.replay(&cfg, rec.inputs, last, progress)
+    session.replay(&cfg, rec, last, progress)
 }

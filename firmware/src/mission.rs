@@ -43,6 +43,9 @@ pub struct MissionInputs<'a> {
     /// Called between frames (once a mission second) for the progress
     /// display.
     pub progress: Option<&'a dyn Fn(&Progress)>,
+    /// In replay of a run in real time ([`Enforcement::Replay`]): its
+    /// recorded slips and overruns, in order.
+    pub replayed_timing: &'a [crate::record::frame_timing::FrameTiming],
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -269,7 +272,10 @@ pub fn run<C: FrameClock>(
         .borrow()
         .receive_clock_ns()
         .map(|_| crate::realtime_figures::LatencyProbe::new());
+    let mut replayed = crate::record::frame_timing::Cursor::new(m.replayed_timing);
     warm_up_blocking();
+    // The executive's clock starts with the first frame, just after this.
+    hw.borrow_mut().start_receive_clock();
     let started = Instant::now();
     accounting::reset();
     accounting::reset_heap_peak();
@@ -305,6 +311,9 @@ pub fn run<C: FrameClock>(
         // nothing on board can change the world before the next frame: a
         // simulated world computes that stretch beside the tasks (the
         // LiDAR's rays on the second core).
+        if m.enforcement == Enforcement::Replay {
+            exec.replay_overruns(replayed.overruns_due(exec.next_frame()));
+        }
         let after = exec.clock().frame_time_ns(exec.next_frame() + 1);
         let f = exec.run_frame_with(&mut bus, &mut |i| {
             if Some(i) == io_task {
@@ -324,7 +333,11 @@ pub fn run<C: FrameClock>(
         }
         bus.timing.overruns += f.overruns as u64;
         bus.timing.slipped_frames += f.slipped;
-        bus.timing.enforcing = m.enforcement == Enforcement::Enforce;
+        bus.timing.enforcing = m.enforcement.enforces();
+        // What replay must take again: decisions made by measured time.
+        if m.enforcement == Enforcement::Enforce && (f.slipped > 0 || f.overran != 0) {
+            record_frame_timing(&mut tap.borrow_mut(), &f);
+        }
         fault_log.observe(
             f.time_ns,
             bus.health.get().map_or(0, |h| h.value.findings),
@@ -598,6 +611,18 @@ fn record_truth(
     let stamp = tap.time(g.time_ns);
     tap.emit(Topic::GroundTruth, frame, now, g.time_ns, |w| {
         pose_stamped(w, stamp, "world", g.position, g.orientation)
+    });
+}
+
+fn record_frame_timing(tap: &mut RecorderTap, f: &speleo_scheduler::FrameReport) {
+    let stamp = tap.time(f.time_ns);
+    let t = crate::record::frame_timing::FrameTiming {
+        frame: f.frame,
+        slipped: f.slipped,
+        overran: f.overran,
+    };
+    tap.emit(Topic::FrameTiming, f.frame, f.time_ns, f.time_ns, |w| {
+        crate::record::frame_timing::write(w, stamp.sec, stamp.nsec, &t)
     });
 }
 

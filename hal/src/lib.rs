@@ -143,6 +143,10 @@ pub trait Hardware {
     fn world_over(&self) -> bool {
         false
     }
+    /// The executive's frame 0 starts now: receive times count from here,
+    /// so that they and the frames share one time base (on hardware whose
+    /// time passes on its own; sim and replay stamp inputs in frame time).
+    fn start_receive_clock(&mut self) {}
     /// Now, in the time base of the receive times, on hardware whose time
     /// passes on its own (the real rover); none where the executive's
     /// frames make the time (sim, replay).

@@ -24,6 +24,9 @@ pub struct Cloud {
     pub end_us: f64,
     /// Point times are seconds after the first firing.
     pub points: Vec<speleo_hal::hdl32e::Point>,
+    /// A whole turn from the cut angle (not the part turned before the
+    /// packets began or after they stopped).
+    pub whole: bool,
 }
 
 /// What the LiDAR driver counted.

@@ -18,6 +18,17 @@ use crate::MAX_TASKS;
 pub enum Enforcement {
     Enforce,
     CountOnly,
+    /// Replay of an enforcing run: the overruns are not measured but taken
+    /// from the run's record ([`Executive::replay_overruns`]) and enforced
+    /// as they were, so the replay takes the run's decisions.
+    Replay,
+}
+
+impl Enforcement {
+    /// Whether overrun policies change what runs.
+    pub fn enforces(self) -> bool {
+        matches!(self, Enforcement::Enforce | Enforcement::Replay)
+    }
 }
 
 /// What happened in one frame.
@@ -29,6 +40,8 @@ pub struct FrameReport {
     pub slipped: u64,
     pub tasks_run: u32,
     pub overruns: u32,
+    /// Bit `i`: task `i` of the schedule overran its budget.
+    pub overran: u64,
 }
 
 /// Error building an executive.
@@ -66,6 +79,8 @@ pub struct Executive<'t, B, P: Platform, C: FrameClock> {
     mode: Mode,
     safe_cause: Option<usize>,
     events: EventLog,
+    /// The overruns of the next frame, in replay.
+    replayed_overruns: u64,
 }
 
 impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
@@ -104,7 +119,14 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             mode: Mode::Nominal,
             safe_cause: None,
             events: EventLog::new(window, 10),
+            replayed_overruns: 0,
         })
+    }
+
+    /// In replay ([`Enforcement::Replay`]): the tasks that overran in the
+    /// recorded frame about to run (bit `i`: task `i`).
+    pub fn replay_overruns(&mut self, overran: u64) {
+        self.replayed_overruns = overran;
     }
 
     /// Run one minor frame: wait for it, then run every task due in it.
@@ -133,6 +155,8 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
         };
         let mut tasks_run = 0;
         let mut overruns = 0;
+        let mut overran = 0u64;
+        let replayed = core::mem::take(&mut self.replayed_overruns);
         // The clock is read again after the bookkeeping of each run, so a
         // task is charged for its own run and nothing else.
         let mut t0 = self.platform.now_ns();
@@ -146,6 +170,7 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             if (cx.mode == Mode::Safe && !spec.in_safe_mode) || st.skip_next {
                 st.skip_next = false;
                 st.skipped += 1;
+                self.tasks[i].skipped(bus);
                 continue;
             }
             cx.degraded = st.degraded;
@@ -175,11 +200,16 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             st.runs += 1;
             st.histogram.record(dt);
             let budget_ns = spec.run_budget_us() as u64 * 1000;
-            if dt > budget_ns {
+            let over = match self.enforcement {
+                Enforcement::Replay => replayed & (1 << i) != 0,
+                _ => dt > budget_ns,
+            };
+            if over {
                 overruns += 1;
+                overran |= 1 << i;
                 st.overruns += 1;
                 st.clean_runs = 0;
-                let enforced = self.enforcement == Enforcement::Enforce;
+                let enforced = self.enforcement.enforces();
                 self.events.push(OverrunEvent {
                     task: spec.name.clone(),
                     frame,
@@ -231,6 +261,7 @@ impl<'t, B, P: Platform, C: FrameClock> Executive<'t, B, P, C> {
             slipped,
             tasks_run,
             overruns,
+            overran,
         }
     }
 

@@ -52,4 +52,9 @@ pub trait Task<B> {
     /// roll back the mailboxes the task published to, so consumers keep the
     /// previous value with its old timestamp.
     fn retract(&mut self, _bus: &mut B) {}
+
+    /// The task does not run in a frame it is due in (skip policy, or the
+    /// safe schedule leaves it out): withdraw what its last run left for
+    /// the frame, when that is per-frame data others would take as new.
+    fn skipped(&mut self, _bus: &mut B) {}
 }

@@ -21,6 +21,8 @@ struct Bus {
     log: Fifo<u64, 64>,
     motor: Latest<f64>,
     work_done: u64,
+    /// Frames the producer was left out of, as it was told.
+    skips_noticed: u64,
 }
 
 struct Producer;
@@ -29,6 +31,9 @@ impl Task<Bus> for Producer {
         let n = bus.counter.get().map_or(0, |s| s.value) + 1;
         bus.counter.publish(cx.time_ns, n);
         bus.log.push(n);
+    }
+    fn skipped(&mut self, bus: &mut Bus) {
+        bus.skips_noticed += 1;
     }
 }
 
@@ -304,6 +309,38 @@ fn skip_policy_drops_the_next_run() {
     assert_eq!(stats[0], (5, 5, 5, 0));
     assert_eq!(bus.counter.get().map(|s| s.value), Some(5));
     assert_eq!(mode, Mode::Nominal);
+}
+
+#[test]
+fn a_skipped_task_is_told_so() {
+    let (bus, stats, _) = run_policy_case(1, 10);
+    assert_eq!(bus.skips_noticed, stats[0].2);
+}
+
+#[test]
+fn replay_takes_the_recorded_overruns_instead_of_measuring() {
+    let platform = ScriptedPlatform::new();
+    // The doubler's runs take 5 ms, but the record says only the
+    // producer overran, in frame 0.
+    let mut d = [50_000u64; 8];
+    d[2] = 5_000_000;
+    platform.durations.set(d);
+    let mut bus = Bus::default();
+    let mut tasks = Tasks::new();
+    let mut exec = tasks.executive(&platform, Enforcement::Replay);
+    let mut overran = Vec::new();
+    for frame in 0..4 {
+        exec.replay_overruns(if frame == 0 { 1 } else { 0 });
+        overran.push(exec.run_frame(&mut bus).overran);
+    }
+    assert_eq!(overran, [1, 0, 0, 0]);
+    let producer = &exec.stats()[0];
+    assert_eq!(
+        (producer.runs, producer.overruns, producer.skipped),
+        (3, 1, 1)
+    );
+    assert_eq!(exec.stats()[1].overruns, 0, "measured, not recorded");
+    assert_eq!(bus.skips_noticed, 1);
 }
 
 #[test]

@@ -83,6 +83,7 @@ fn run_frames<C: FrameClock>(
             truth: Some(truth.clone()),
             stop: &stop,
             progress: None,
+            replayed_timing: &[],
         },
         hw,
         &tap,

@@ -45,7 +45,26 @@ pub struct FaultFigures {
     /// Findings raised with no injected fault acting or settling.
     pub false_alarms: u64,
     pub faults: Vec<FaultOutcome>,
+    /// Every finding the health task raised and every stay in the safe
+    /// schedule, with their times, whether faults were injected or not
+    /// (the real rover's, a bench's).
+    pub episodes: Vec<Episode>,
+    /// Episodes past the log's capacity, not listed.
+    pub episodes_dropped: u64,
 }
+
+/// A finding (or the safe schedule, `safe_mode`) from the frame it was
+/// raised to the frame it cleared, in mission seconds.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Episode {
+    pub what: &'static str,
+    pub from_s: f64,
+    /// None: still in force at the end.
+    pub until_s: Option<f64>,
+}
+
+/// Episodes kept: the log's memory is fixed at start-up.
+const EPISODES: usize = 64;
 
 struct Tracked {
     spec: FaultSpec,
@@ -61,6 +80,8 @@ pub struct FaultLog {
     last_mode: Mode,
     safe_stops: u64,
     false_alarms: u64,
+    episodes: heapless::Vec<Episode, EPISODES>,
+    episodes_dropped: u64,
 }
 
 impl FaultLog {
@@ -80,11 +101,54 @@ impl FaultLog {
             last_mode: Mode::Nominal,
             safe_stops: 0,
             false_alarms: 0,
+            episodes: heapless::Vec::new(),
+            episodes_dropped: 0,
+        }
+    }
+
+    /// Open an episode of `what` at `t_s`.
+    fn open(&mut self, what: &'static str, t_s: f64) {
+        let e = Episode {
+            what,
+            from_s: t_s,
+            until_s: None,
+        };
+        if self.episodes.push(e).is_err() {
+            self.episodes_dropped += 1;
+        }
+    }
+
+    /// Close the open episode of `what` at `t_s`.
+    fn close(&mut self, what: &'static str, t_s: f64) {
+        if let Some(e) = self
+            .episodes
+            .iter_mut()
+            .rev()
+            .find(|e| e.what == what && e.until_s.is_none())
+        {
+            e.until_s = Some(t_s);
+        }
+    }
+
+    fn track_episodes(&mut self, t_ns: u64, findings: u16, mode: Mode) {
+        let t_s = t_ns as f64 / 1e9;
+        for (bit, name) in finding::NAMES {
+            match (self.last_mask & bit != 0, findings & bit != 0) {
+                (false, true) => self.open(name, t_s),
+                (true, false) => self.close(name, t_s),
+                _ => {}
+            }
+        }
+        match (self.last_mode, mode) {
+            (Mode::Nominal, Mode::Safe) => self.open("safe_mode", t_s),
+            (Mode::Safe, Mode::Nominal) => self.close("safe_mode", t_s),
+            _ => {}
         }
     }
 
     /// After each frame: its time, the health findings in force, the mode.
     pub fn observe(&mut self, t_ns: u64, findings: u16, mode: Mode) {
+        self.track_episodes(t_ns, findings, mode);
         let rising = findings & !self.last_mask;
         if mode == Mode::Safe && self.last_mode == Mode::Nominal {
             self.safe_stops += 1;
@@ -158,6 +222,8 @@ impl FaultLog {
                 .count(),
             false_alarms: self.false_alarms,
             faults,
+            episodes: self.episodes.to_vec(),
+            episodes_dropped: self.episodes_dropped,
         }
     }
 }
@@ -189,6 +255,15 @@ mod tests {
         assert_eq!(g.faults[0].recovered_after_ms, Some(2_100.0));
         assert_eq!(g.faults[0].findings, vec!["lidar_silent"]);
         assert_eq!((g.safe_stops, g.false_alarms), (1, 0));
+        let e = |what, from_s, until_s| Episode {
+            what,
+            from_s,
+            until_s: Some(until_s),
+        };
+        assert_eq!(
+            g.episodes,
+            vec![e("lidar_silent", 1.3, 3.1), e("safe_mode", 1.3, 5.1)]
+        );
     }
 
     #[test]

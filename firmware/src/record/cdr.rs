@@ -181,6 +181,13 @@ impl<'a> CdrReader<'a> {
         Ok(self.u32()? as i32)
     }
 
+    pub fn u64(&mut self) -> Result<u64, CdrError> {
+        let s = self.take(8, 8)?;
+        let mut b = [0u8; 8];
+        b.copy_from_slice(s);
+        Ok(u64::from_le_bytes(b))
+    }
+
     pub fn string(&mut self) -> Result<&'a str, CdrError> {
         let n = self.u32()? as usize;
         let s = self.take(n, 1)?;

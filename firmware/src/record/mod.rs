@@ -8,6 +8,7 @@ pub mod compare;
 pub mod diagnostics;
 pub mod encode;
 pub mod flatten;
+pub mod frame_timing;
 mod length_check;
 pub mod live;
 pub mod messages;

@@ -50,6 +50,8 @@ pub struct Recording {
     /// The `speleo.summary` metadata, present when the run ended normally.
     pub summary: Option<BTreeMap<String, String>>,
     pub inputs: Vec<RecordedInput>,
+    /// The executive's slips and overruns, when it ran in real time.
+    pub timing: Vec<crate::record::frame_timing::FrameTiming>,
     /// Outputs by topic (index = `Topic as usize`).
     pub expected: Vec<Vec<ExpectedMessage>>,
     pub messages: u64,
@@ -154,6 +156,7 @@ pub fn parse(bytes: &[u8], p: &str) -> Result<Recording, ReadError> {
         run: BTreeMap::new(),
         summary: None,
         inputs: Vec::new(),
+        timing: Vec::new(),
         expected: vec![Vec::new(); Topic::ALL.len()],
         messages: 0,
         max_frame: None,
@@ -225,6 +228,17 @@ pub fn parse(bytes: &[u8], p: &str) -> Result<Recording, ReadError> {
                             receive_time_ns: header.publish_time.saturating_sub(epoch(&rec.run)),
                             bytes: raw.data.to_vec(),
                         });
+                    }
+                    Role::Schedule => {
+                        let t = crate::record::frame_timing::read(frame, &data).map_err(|why| {
+                            ReadError::BadMessage {
+                                path: p.clone(),
+                                topic: info.name,
+                                sequence: header.sequence,
+                                why,
+                            }
+                        })?;
+                        rec.timing.push(t);
                     }
                     Role::Telemetry | Role::Sim => {}
                 }

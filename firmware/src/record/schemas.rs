@@ -221,6 +221,9 @@ pub const POINT_CLOUD2: &str = concat!(
 /// `speleo_msgs/msg/RawInput`.
 pub const RAW_INPUT: &str = concat!(speleo!("RawInput"), time!());
 
+/// `speleo_msgs/msg/FrameTiming`.
+pub const FRAME_TIMING: &str = concat!(speleo!("FrameTiming"), time!());
+
 /// `speleo_msgs/msg/CanFrames`.
 pub const CAN_FRAMES: &str = concat!(
     speleo!("CanFrames"),

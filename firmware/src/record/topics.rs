@@ -14,6 +14,9 @@ pub enum Role {
     Telemetry,
     /// Simulation ground truth: never visible to on-board tasks, not compared.
     Sim,
+    /// The executive's timing decisions in real time (slips, overruns):
+    /// taken again by replay, not compared.
+    Schedule,
 }
 
 impl Role {
@@ -23,6 +26,7 @@ impl Role {
             Role::Output => "output",
             Role::Telemetry => "telemetry",
             Role::Sim => "sim",
+            Role::Schedule => "schedule",
         }
     }
 }
@@ -54,6 +58,8 @@ pub enum Topic {
     TfStatic,
     /// The IMU sample's fields that `sensor_msgs/Imu` has no place for.
     ImuStatus,
+    /// The executive's slips and overruns in a frame of a real-time run.
+    FrameTiming,
 }
 
 pub struct TopicInfo {
@@ -94,7 +100,7 @@ const QOS_RELIABLE: &str = "- history: 1\n  depth: 100\n  reliability: 1\n  dura
 const QOS_LATCHED: &str = "- history: 1\n  depth: 1\n  reliability: 1\n  durability: 1\n  deadline:\n    sec: 2147483647\n    nsec: 4294967295\n  lifespan:\n    sec: 2147483647\n    nsec: 4294967295\n  liveliness: 1\n  liveliness_lease_duration:\n    sec: 2147483647\n    nsec: 4294967295\n  avoid_ros_namespace_conventions: false\n";
 
 impl Topic {
-    pub const ALL: [Topic; 21] = [
+    pub const ALL: [Topic; 22] = [
         Topic::RawLidar,
         Topic::RawLidarPosition,
         Topic::RawImu,
@@ -116,6 +122,7 @@ impl Topic {
         Topic::PlannerPath,
         Topic::TfStatic,
         Topic::ImuStatus,
+        Topic::FrameTiming,
     ];
 
     /// Position in the data flow (decoded inputs first, commands to the
@@ -129,7 +136,7 @@ impl Topic {
             Topic::WheelCommand | Topic::Plan | Topic::PlannerPath => 3,
             Topic::Health => 4,
             Topic::ImuTx | Topic::CanTx => 5,
-            Topic::Scheduler | Topic::GroundTruth | Topic::SimTf => 6,
+            Topic::Scheduler | Topic::GroundTruth | Topic::SimTf | Topic::FrameTiming => 6,
         }
     }
 
@@ -164,6 +171,7 @@ impl Topic {
             Topic::PlannerPath => ("/planner/path", PATH, Output),
             Topic::Health => ("/diagnostics", DIAGNOSTICS, Output),
             Topic::Scheduler => ("/scheduler", SCHEDULER, Telemetry),
+            Topic::FrameTiming => ("/executive/timing", FRAME_TIMING, Schedule),
             Topic::GroundTruth => ("/sim/ground_truth", POSE_STAMPED, Sim),
             // world -> map: where the simulated rover started.
             Topic::SimTf => ("/sim/tf", TF, Sim),
@@ -185,6 +193,7 @@ impl Topic {
 type Schema = (&'static str, &'static str);
 
 const RAW: Schema = ("speleo_msgs/msg/RawInput", schemas::RAW_INPUT);
+const FRAME_TIMING: Schema = ("speleo_msgs/msg/FrameTiming", schemas::FRAME_TIMING);
 const CAN_FRAMES: Schema = ("speleo_msgs/msg/CanFrames", schemas::CAN_FRAMES);
 const IMU: Schema = ("sensor_msgs/msg/Imu", schemas::IMU);
 const IMU_STATUS: Schema = ("speleo_msgs/msg/ImuStatus", schemas::IMU_STATUS);

@@ -57,4 +57,28 @@ impl Task<Bus> for IoTask<'_, '_> {
         bus.counters.raw_dropped = bus.raw.dropped;
         bus.counters.can_tx_dropped = bus.can_tx.dropped();
     }
+
+    /// Nothing was collected in a skipped frame: the drivers and the
+    /// recorder must not take the last frame's inputs again. They wait in
+    /// the devices' buffers for the next run.
+    fn skipped(&mut self, bus: &mut Bus) {
+        bus.raw.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use speleo_hal::{Device, InputSink};
+
+    #[test]
+    fn a_skipped_run_leaves_no_inputs_for_the_drivers_to_take_again() {
+        let mut replay = speleo_hal::replay::ReplayHardware::new(10_000, Vec::new());
+        let hw: RefCell<&mut dyn Hardware> = RefCell::new(&mut replay);
+        let mut io = IoTask::new(&hw);
+        let mut bus = Bus::new();
+        bus.raw.input(Device::Imu, 5, &[0xfa, 0xff]);
+        io.skipped(&mut bus);
+        assert!(bus.raw.entries().is_empty());
+    }
 }

@@ -107,6 +107,7 @@ impl Task<Bus> for LidarDriver {
                         start_us: f.start_us,
                         end_us: f.end_us,
                         points,
+                        whole: f.whole,
                     },
                 );
                 if let Some(old) = evicted {

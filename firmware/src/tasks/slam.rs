@@ -98,6 +98,11 @@ impl SlamTask {
             return;
         };
         self.cloud_seen = c.seq;
+        // Part of a turn would make a keyframe that sees part of the cave;
+        // the next whole turn is a revolution later.
+        if !c.value.whole {
+            return;
+        }
         let history = &bus.odom_history;
         let at = |t: u64| history.at(t);
         let sink = &mut bus.keyframe_clouds;

@@ -139,8 +139,13 @@ pub struct ValidateArgs {
 pub struct WcetArgs {
     /// One scenario (route, explore, validate, boulders, garage, replay);
     /// all of them when absent.
-    #[arg(long, value_name = "NAME")]
+    #[arg(long, value_name = "NAME", conflicts_with = "recording")]
     pub scenario: Option<String>,
+    /// Judge a recording instead (a bench's, the rover's, a simulation's):
+    /// replayed through the drivers and tasks, each task's p99.9 against
+    /// its budget.
+    #[arg(long, value_name = "REC.mcap")]
+    pub recording: Option<PathBuf>,
     /// Configuration the scenarios start from; values not given keep their
     /// defaults.
     #[arg(long, value_name = "FILE.toml")]
@@ -393,6 +398,7 @@ pub struct TwinArgs {
     /// The world (as `sim --world`).
     #[arg(long)]
     pub world: Option<String>,
+    /// The world's seed (as `sim --seed`).
     #[arg(long)]
     pub seed: Option<u64>,
     /// The sensors' noise streams, when they differ from the world's seed.
@@ -417,6 +423,7 @@ pub struct HilArgs {
     /// The twin's world (as `sim --world`).
     #[arg(long)]
     pub world: Option<String>,
+    /// The twin's world seed (as `sim --seed`).
     #[arg(long)]
     pub seed: Option<u64>,
     /// How long the bench runs, s of real time (less when the mission ends

@@ -58,7 +58,15 @@ pub struct Frame<'a> {
     /// capture): its last packet is the one taken in before the packet
     /// being pushed, which arrived later by the gap.
     pub flushed: bool,
+    /// A whole turn from the cut angle: not the turn in progress when the
+    /// packets began (start-up, after a gap or a resync), nor one a gap
+    /// cut short.
+    pub whole: bool,
 }
+
+/// A frame whose first block is this close past the cut (centidegrees,
+/// about a packet's sweep at 20 Hz) began at the cut.
+const AT_CUT_CENTIDEG: u32 = 500;
 
 pub struct FrameAssembler {
     decoder: Decoder,
@@ -68,6 +76,8 @@ pub struct FrameAssembler {
     last_rel: Option<u32>,
     last_ts: Option<u32>,
     start_us: Option<f64>,
+    /// The frame in progress began at the cut angle.
+    began_at_cut: bool,
     /// End (`Frame::end_us`) of the last packet taken in.
     end_us: f64,
     /// Hours added to timestamps after wraps, so time keeps increasing.
@@ -93,6 +103,7 @@ impl FrameAssembler {
             last_rel: None,
             last_ts: None,
             start_us: None,
+            began_at_cut: false,
             end_us: 0.0,
             hours: 0,
             behind: 0,
@@ -152,6 +163,9 @@ impl FrameAssembler {
         let mut first_block_of_new = None;
         for (b, blk) in p.blocks.iter().enumerate() {
             let rel = super::decode::azimuth_step(self.cut, blk.azimuth);
+            if self.start_us.is_none() && b == 0 {
+                self.began_at_cut = rel < AT_CUT_CENTIDEG;
+            }
             if self.last_rel.is_some_and(|l| l > rel + 18_000) && first_block_of_new.is_none() {
                 first_block_of_new = Some(b);
             }
@@ -168,6 +182,7 @@ impl FrameAssembler {
         let points = &mut self.points;
         let mut start = self.start_us.unwrap_or(packet_us);
         let end_us = packet_us + PACKET_PERIOD_US;
+        let whole = self.began_at_cut;
         decoder.decode_with(p, |mut pt| {
             if pt.block as usize >= split && !emitted {
                 emitted = true;
@@ -180,6 +195,7 @@ impl FrameAssembler {
                     end_us,
                     points,
                     flushed: false,
+                    whole,
                 });
                 points.clear();
                 start = block_us(split as u8);
@@ -202,9 +218,13 @@ impl FrameAssembler {
                 end_us,
                 points: &self.points,
                 flushed: false,
+                whole,
             });
             self.points.clear();
             start = block_us(split as u8);
+        }
+        if split < BLOCKS {
+            self.began_at_cut = true;
         }
         self.start_us = Some(start);
         self.end_us = end_us;
@@ -224,6 +244,7 @@ impl FrameAssembler {
             end_us: self.end_us,
             points: &self.points,
             flushed: true,
+            whole: false,
         });
         self.index += 1;
         self.points.clear();
@@ -272,6 +293,32 @@ mod tests {
         }
         assert_eq!(sizes, vec![1800, 1800]);
         assert_eq!(a.counters.lost_packets + a.counters.out_of_order, 0);
+    }
+
+    #[test]
+    fn only_turns_from_the_cut_are_whole() {
+        // Started at the cut: whole from the first.
+        let mut a = assembler();
+        let mut whole = Vec::new();
+        for p in packets(301, 0, 0) {
+            a.push(&p, |f| whole.push(f.whole));
+        }
+        assert_eq!(whole, [true, true]);
+        // Started a quarter turn in: the first frame is the rest of a turn.
+        let mut a = assembler();
+        let mut frames = Vec::new();
+        let ps = packets(400, 9000, 0);
+        for p in &ps {
+            a.push(p, |f| frames.push((f.whole, f.points.len())));
+        }
+        assert_eq!(frames, [(false, 1350), (true, 1800)]);
+        // After a gap the turn in progress is neither.
+        let later = packets(200, 9000, ps[399].timestamp_us + 500_000);
+        let mut after = Vec::new();
+        for p in &later {
+            a.push(p, |f| after.push((f.whole, f.flushed)));
+        }
+        assert_eq!(after, [(false, true), (false, false)]);
     }
 
     #[test]

@@ -56,6 +56,7 @@ pub(crate) mod tests_pty {
 }
 
 use std::net::SocketAddr;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use crate::{CanBus, HalError, Hardware, ImuPort, LidarSource, TimeSource};
@@ -88,7 +89,7 @@ pub enum CanTransport {
 /// The real rover. Receive times are `CLOCK_MONOTONIC` nanoseconds relative
 /// to the moment the hardware was opened, the executive's time base.
 pub struct RealHardware {
-    time: Arc<dyn TimeSource>,
+    time: Arc<MonotonicTime>,
     lidar: udp_lidar::UdpLidar,
     imu: serial_imu::SerialImu,
     can: Box<dyn CanBus>,
@@ -101,9 +102,10 @@ impl RealHardware {
             v.parse()
                 .map_err(|e| HalError::Config(format!("devices.{key} = \"{v}\": {e}")))
         };
-        let time: Arc<dyn TimeSource> = Arc::new(MonotonicTime::start());
+        let clock = Arc::new(MonotonicTime::start());
+        let time: Arc<dyn TimeSource> = clock.clone();
         Ok(RealHardware {
-            time: time.clone(),
+            time: clock,
             lidar: {
                 let l = udp_lidar::UdpLidar::bind(
                     addr("lidar_bind", &s.lidar_bind)?,
@@ -130,6 +132,9 @@ impl RealHardware {
 }
 
 impl Hardware for RealHardware {
+    fn start_receive_clock(&mut self) {
+        self.time.restart();
+    }
     fn receive_clock_ns(&self) -> Option<u64> {
         Some(self.time.now_ns())
     }
@@ -146,7 +151,7 @@ impl Hardware for RealHardware {
 
 /// `CLOCK_MONOTONIC` nanoseconds since [`MonotonicTime::start`].
 pub struct MonotonicTime {
-    origin: u64,
+    origin: AtomicU64,
 }
 
 fn monotonic() -> u64 {
@@ -163,14 +168,19 @@ impl MonotonicTime {
     /// Time zero is now.
     pub fn start() -> Self {
         MonotonicTime {
-            origin: monotonic(),
+            origin: AtomicU64::new(monotonic()),
         }
+    }
+
+    /// Time zero is now, again.
+    pub fn restart(&self) {
+        self.origin.store(monotonic(), Ordering::Relaxed);
     }
 }
 
 impl TimeSource for MonotonicTime {
     fn now_ns(&self) -> u64 {
-        monotonic().saturating_sub(self.origin)
+        monotonic().saturating_sub(self.origin.load(Ordering::Relaxed))
     }
 }
 

@@ -264,9 +264,31 @@ fn print(s: &ScenarioReport) {
     }
 }
 
-/// `speleo wcet`.
+/// A recording (a bench's, the rover's, a simulation's) replayed through
+/// the drivers and tasks, its times judged as a scenario's are.
+fn run_recording(log: &std::path::Path, progress: bool) -> Result<ScenarioReport, Error> {
+    let r = speleo_firmware::commands::replay_recording(log, &Outputs::default(), progress)?;
+    if let Some(d) = r.divergence {
+        return Err(format!("the replay diverged from its recording: {d}").into());
+    }
+    let tasks = verdicts(&r.result.tasks);
+    Ok(ScenarioReport {
+        name: "recording".into(),
+        about: format!("{} replayed through the drivers and tasks", log.display()),
+        world: String::new(),
+        sim_time_s: r.result.sim_time_s,
+        wall_time_s: r.result.wall_time_s,
+        memory: r.result.memory,
+        planner_step_us: r.result.planner.as_ref().map(|p| p.step_us.clone()),
+        pass: tasks.iter().all(|t| t.pass),
+        tasks,
+    })
+}
+
+/// `speleo wcet`: the scenarios, or one recording when `recording` is given.
 pub fn wcet(
     scenario: Option<&str>,
+    recording: Option<&PathBuf>,
     config: Option<&PathBuf>,
     report: Option<&PathBuf>,
     calibrate: Option<&PathBuf>,
@@ -277,6 +299,7 @@ pub fn wcet(
         None => Config::default(),
     };
     let chosen: Vec<&Scenario> = match scenario {
+        _ if recording.is_some() => Vec::new(),
         None => SCENARIOS.iter().collect(),
         Some(n) => {
             let s = SCENARIOS.iter().find(|s| s.name == n).ok_or_else(|| {
@@ -287,6 +310,11 @@ pub fn wcet(
         }
     };
     let mut scenarios = Vec::new();
+    if let Some(log) = recording {
+        let r = run_recording(log, progress)?;
+        print(&r);
+        scenarios.push(r);
+    }
     for s in chosen {
         let r = run_scenario(s, &base, progress)?;
         print(&r);
