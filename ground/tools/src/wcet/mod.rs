@@ -275,7 +275,9 @@ fn run_recording(log: &std::path::Path, progress: bool) -> Result<ScenarioReport
     Ok(ScenarioReport {
         name: "recording".into(),
         about: format!("{} replayed through the drivers and tasks", log.display()),
-        world: String::new(),
+        world: log
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
         sim_time_s: r.result.sim_time_s,
         wall_time_s: r.result.wall_time_s,
         memory: r.result.memory,

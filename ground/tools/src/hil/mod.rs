@@ -13,6 +13,11 @@ use std::time::{Duration, Instant};
 use serde_json::{json, Value};
 
 use crate::Error;
+use flight_config::write_flight_config;
+use verdict::{judge, print_side_by_side};
+
+mod flight_config;
+pub mod verdict;
 
 /// What `speleo hil` is asked to do.
 #[derive(Clone, Debug)]
@@ -122,61 +127,6 @@ pub fn hil(r: HilRequest) -> Result<ExitCode, Error> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The flight binary's configuration: `base` (or the defaults) with its
-/// devices at the twin's wires, as `twin` (or its defaults) places them.
-fn write_flight_config(twin: Option<&Path>, base: Option<&Path>, out: &Path) -> Result<(), Error> {
-    let t = match twin {
-        Some(p) => crate::twin::settings::TwinSettings::load(p)?,
-        None => crate::twin::settings::TwinSettings::defaults(),
-    };
-    let mut doc: toml::Table = match base {
-        Some(p) => std::fs::read_to_string(p)
-            .map_err(|e| format!("cannot read {}: {e}", p.display()))?
-            .parse()
-            .map_err(|e| format!("{}: {e}", p.display()))?,
-        None => toml::Table::new(),
-    };
-    let links = t.table.links()?;
-    let port = |s: &crate::twin::serial_end::SerialSetting, link: &str| match s {
-        crate::twin::serial_end::SerialSetting::Device { path, .. } => path.clone(),
-        crate::twin::serial_end::SerialSetting::Pty { .. } => link.to_string(),
-    };
-    let devices = doc
-        .entry("devices")
-        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-    let toml::Value::Table(d) = devices else {
-        return Err("[devices] is not a table".into());
-    };
-    let s = |v: &str| toml::Value::String(v.to_string());
-    d.insert("lidar_bind".into(), s(&links.lidar_to.to_string()));
-    d.insert(
-        "lidar_position_bind".into(),
-        s(&links
-            .lidar_position_to
-            .map_or(String::new(), |a| a.to_string())),
-    );
-    d.insert("lidar_sensor".into(), s(&links.lidar_from.to_string()));
-    d.insert("imu_port".into(), s(&port(&links.imu, &t.table.imu_link)));
-    d.insert(
-        "imu_baud".into(),
-        toml::Value::Integer(t.table.imu_baud.into()),
-    );
-    d.insert("can_transport".into(), s("slcan"));
-    d.insert(
-        "can_serial_port".into(),
-        s(&port(&links.can, &t.table.can_link)),
-    );
-    d.insert(
-        "can_serial_baud".into(),
-        toml::Value::Integer(t.table.can_baud.into()),
-    );
-    let text = toml::to_string(&doc).map_err(|e| e.to_string())?;
-    speleo_firmware::config::Config::from_toml(&text)
-        .map_err(|e| format!("the flight configuration for the bench: {e}"))?;
-    std::fs::write(out, text).map_err(|e| format!("writing {}: {e}", out.display()))?;
-    Ok(())
-}
-
 /// A child process killed if the bench ends early (an error on the way).
 struct Guard(Child);
 
@@ -241,113 +191,4 @@ fn stop(child: &mut Child, what: &str) -> Result<i32, Error> {
 fn read_json(p: &Path) -> Result<Value, Error> {
     let text = std::fs::read_to_string(p).map_err(|e| format!("reading {}: {e}", p.display()))?;
     Ok(serde_json::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))?)
-}
-
-/// The bench's verdict figures: the flight binary's final SLAM pose against
-/// the twin's truth, in the map frame (level, at the true start, heading as
-/// the rover started).
-pub fn judge(flight: &Value, twin: &Value) -> Value {
-    let f64s = |v: &Value| -> Option<Vec<f64>> {
-        v.as_array()?
-            .iter()
-            .map(Value::as_f64)
-            .collect::<Option<Vec<_>>>()
-    };
-    let start = f64s(&twin["run"]["truth_start"]);
-    let end = f64s(&twin["run"]["truth_end"]);
-    let believed = f64s(&flight["end"]["slam_position"]);
-    let error = match (start, end, believed) {
-        (Some(s), Some(e), Some(b)) if s.len() == 4 && e.len() == 4 && b.len() == 3 => {
-            let (c, sn) = (s[3].cos(), s[3].sin());
-            let (dx, dy, dz) = (e[0] - s[0], e[1] - s[1], e[2] - s[2]);
-            let truth = [c * dx + sn * dy, -sn * dx + c * dy, dz];
-            let d: f64 = (0..3).map(|i| (truth[i] - b[i]).powi(2)).sum();
-            json!({
-                "truth_in_map": truth,
-                "believed_in_map": b,
-                "position_error_m": d.sqrt(),
-            })
-        }
-        _ => json!({ "position_error_m": null }),
-    };
-    json!({
-        "pose": error,
-        "truth_distance_m": twin["run"]["truth_distance_m"],
-        "odometry_distance_m": flight["end"]["odometry_distance_m"],
-        "explored_area_m2": flight["exploration"]["explored_area_m2"],
-    })
-}
-
-fn print_side_by_side(flight: &Value, twin: &Value, bench: &Value) {
-    let n = |v: &Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.2}"));
-    println!("{:<34} {:>16} {:>16}", "", "flight (run)", "twin (truth)");
-    println!(
-        "{:<34} {:>16} {:>16}",
-        "seconds",
-        n(&flight["sim_time_s"]),
-        n(&twin["run"]["seconds"])
-    );
-    println!(
-        "{:<34} {:>16} {:>16}",
-        "distance driven, m",
-        n(&bench["odometry_distance_m"]),
-        n(&bench["truth_distance_m"])
-    );
-    println!(
-        "{:<34} {:>16} {:>16}",
-        "position error at the end, m",
-        n(&bench["pose"]["position_error_m"]),
-        ""
-    );
-    println!(
-        "{:<34} {:>16} {:>16}",
-        "explored area, m2",
-        n(&bench["explored_area_m2"]),
-        ""
-    );
-    println!(
-        "{:<34} {:>16} {:>16}",
-        "lidar packets",
-        n(&flight["counters"]["lidar_packets"]),
-        twin["links"]["lidar_packets_sent"].to_string()
-    );
-    let rt = &flight["realtime"];
-    println!(
-        "{:<34} {:>16} {:>16}",
-        "frame start lateness p50/p99/max, us",
-        format!(
-            "{}/{}/{}",
-            n(&rt["frame_start_lateness"]["p50_us"]),
-            n(&rt["frame_start_lateness"]["p99_us"]),
-            n(&rt["frame_start_lateness"]["max_us"])
-        ),
-        format!("{} slipped", twin["run"]["steps_slipped"])
-    );
-    for (key, label) in [
-        (
-            "lidar_to_wheel_command",
-            "lidar -> wheel command p50/p99, ms",
-        ),
-        ("imu_to_odometry", "imu -> odometry p50/p99, ms"),
-    ] {
-        let ms = |v: &Value| {
-            v.as_f64()
-                .map_or("-".to_string(), |x| format!("{:.1}", x * 1e-3))
-        };
-        println!(
-            "{:<34} {:>16} {:>16}",
-            label,
-            format!("{}/{}", ms(&rt[key]["p50_us"]), ms(&rt[key]["p99_us"])),
-            ""
-        );
-    }
-    println!(
-        "{:<34} {:>16}",
-        "real-time setup",
-        format!(
-            "{}; {}",
-            rt["sched_fifo"].as_str().unwrap_or("-"),
-            rt["mlockall"].as_str().unwrap_or("-")
-        )
-    );
 }
