@@ -64,6 +64,21 @@ fn the_flight_binary_drives_the_twin_over_the_wire_and_replays_identically() {
         error < 1.0,
         "ended {error:.2} m from where it believed it was"
     );
+    // And all the way: each SLAM pose against the truth at its time (the
+    // two recordings share the machine's clock). A simulated mission's SLAM
+    // error on this tube is a few centimetres; a flight recording dated
+    // from before its first frame was a second off and read 0.5 m.
+    let track = &verdict["track"];
+    assert!(
+        track["poses"].as_u64() > Some(1000) && f(&track["mean_m"]) < 0.25,
+        "the SLAM track against the truth: {track}"
+    );
+    // The LiDAR's position packets came over their own port.
+    assert!(
+        flight["counters"]["lidar_position_packets"].as_u64() > Some(1000),
+        "position packets: {}",
+        flight["counters"]
+    );
 
     // Every wire carried traffic both ways.
     let links = &twin["links"];

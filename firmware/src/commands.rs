@@ -41,17 +41,19 @@ struct Session {
 
 impl Session {
     /// `blocking`: on virtual time the recorder waits for the disk; in real
-    /// time it drops (and counts) rather than delay a frame.
+    /// time it drops (and counts) rather than delay a frame. `epoch_ns`:
+    /// mission time 0 in Unix ns; without it the mission takes the Unix
+    /// time of its first frame.
     fn open(
         out: &Outputs,
         cfg: &Config,
         meta: BTreeMap<String, String>,
-        epoch_ns: u64,
+        epoch_ns: Option<u64>,
         comparer: Option<Comparer>,
         blocking: bool,
     ) -> Result<Session, Error> {
         let large = mission::cloud_message_capacity(cfg.lidar.max_points_per_frame);
-        let tap = RecorderTap::new(epoch_ns, comparer, large);
+        let mut tap = RecorderTap::new(comparer, large);
         let live = match &out.live {
             Some(address) => {
                 let server = LiveServer::start(address)?;
@@ -64,6 +66,9 @@ impl Session {
             None => None,
         };
         if out.record.is_none() && live.is_none() {
+            if let Some(e) = epoch_ns {
+                tap.begin(e);
+            }
             return Ok(Session {
                 tap: RefCell::new(tap),
                 writer: None,
@@ -82,8 +87,12 @@ impl Session {
             run_metadata: meta,
         })?;
         let thread = h.thread.thread().clone();
+        let mut tap = tap.with_writer(h.tx, h.pool, h.large_pool, thread, blocking);
+        if let Some(e) = epoch_ns {
+            tap.begin(e);
+        }
         Ok(Session {
-            tap: RefCell::new(tap.with_writer(h.tx, h.pool, h.large_pool, thread, blocking)),
+            tap: RefCell::new(tap),
             writer: Some(h.thread),
             live,
             replayed_timing: Vec::new(),
@@ -239,11 +248,12 @@ fn progress_bar(enabled: bool, total_s: Option<u64>) -> ProgressBar {
     bar
 }
 
-fn run_metadata(cfg: &Config, mode: &str, epoch_ns: u64) -> BTreeMap<String, String> {
+/// The `speleo.run` metadata but its time base (`epoch_ns`, added when the
+/// recording begins).
+fn run_metadata(cfg: &Config, mode: &str) -> BTreeMap<String, String> {
     let mut m = BTreeMap::new();
     m.insert("config".into(), cfg.to_toml());
     m.insert("mode".into(), mode.into());
-    m.insert("epoch_ns".into(), epoch_ns.to_string());
     m.insert(
         "minor_frame_us".into(),
         cfg.executive.minor_frame_us.to_string(),
@@ -570,13 +580,13 @@ pub fn simulate(cfg: &mut Config, out: &Outputs, progress: bool) -> Result<Missi
     let faults = crate::faults::parse_all(&cfg.sim.faults)?;
     let mut hw = FaultyHardware::new(&mut twin, &faults, false);
     let epoch_ns = cfg.executive.epoch_unix_s * 1_000_000_000;
-    let mut meta = run_metadata(cfg, "sim", epoch_ns);
+    let mut meta = run_metadata(cfg, "sim");
     meta.insert("seed".into(), cfg.sim.seed.to_string());
     if let Some(s) = cfg.sim.noise_seed {
         meta.insert("noise_seed".into(), s.to_string());
     }
     meta.insert("world".into(), cfg.sim.world.clone());
-    let mut session = Session::open(out, cfg, meta, epoch_ns, None, true)?;
+    let mut session = Session::open(out, cfg, meta, Some(epoch_ns), None, true)?;
     // A clock jump skips frames of the mission's time.
     let clock = FaultClock::new(VirtualClock::new(cfg.executive.minor_frame_us), &faults);
     let frames = frames_for(cfg, cfg.sim.duration_s);
@@ -883,7 +893,7 @@ pub fn replay_recording(
     }
     let epoch_ns = rec.epoch_ns();
     let truncated = rec.truncated.is_some();
-    let mut meta = run_metadata(&cfg, "replay", epoch_ns);
+    let mut meta = run_metadata(&cfg, "replay");
     meta.insert("source".into(), log.display().to_string());
     let imported = rec.run.get("mode").map(String::as_str) == Some("import");
     let comparer = (!imported).then(|| {
@@ -893,7 +903,7 @@ pub fn replay_recording(
             mission::cloud_message_capacity(cfg.lidar.max_points_per_frame),
         )
     });
-    let mut session = Session::open(out, &cfg, meta, epoch_ns, comparer, true)?;
+    let mut session = Session::open(out, &cfg, meta, Some(epoch_ns), comparer, true)?;
     let mut result = session.replay(&cfg, rec, last, progress)?;
     let (divergence, compared) = {
         let t = session.tap.borrow();
@@ -932,12 +942,10 @@ pub fn run(a: RunArgs, progress: bool) -> Result<ExitCode, Error> {
     })?;
     let rt = setup_realtime(cfg.executive.realtime_priority);
     tracing::info!("real-time setup: {rt}");
-    let epoch_ns = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos() as u64)
-        .unwrap_or(0);
-    let meta = run_metadata(&cfg, "run", epoch_ns);
-    let mut session = Session::open(&a.out, &cfg, meta, epoch_ns, None, false)?;
+    // Mission time 0 is the first frame's start, in Unix time: the tap
+    // begins there (after the tasks' start-up, which takes a second).
+    let meta = run_metadata(&cfg, "run");
+    let mut session = Session::open(&a.out, &cfg, meta, None, None, false)?;
     // Without a duration a signal is how a run ends; with one, a signal
     // cuts it short.
     crate::signals::install()?;
@@ -991,8 +999,8 @@ pub fn replay_for_maps(log: &Path, progress: bool) -> Result<MissionResult, Erro
         return Err(format!("{}: no complete frame to replay", log.display()).into());
     };
     let epoch_ns = rec.epoch_ns();
-    let meta = run_metadata(&cfg, "mesh", epoch_ns);
+    let meta = run_metadata(&cfg, "mesh");
     let outputs = Outputs::default();
-    let mut session = Session::open(&outputs, &cfg, meta, epoch_ns, None, true)?;
+    let mut session = Session::open(&outputs, &cfg, meta, Some(epoch_ns), None, true)?;
     session.replay(&cfg, rec, last, progress)
 }

@@ -117,6 +117,8 @@ pub struct MissionResult {
     pub suppressed_events: u64,
     pub recorder: TapCounters,
     pub counters: speleo_messages::Counters,
+    /// What the LiDAR driver counted (data and position packets, frames).
+    pub lidar: speleo_messages::LidarCounters,
     pub slam: Option<SlamFigures>,
     /// The maps at the end of the run, when kept.
     pub maps: Option<crate::maps_output::MapsResult>,
@@ -274,8 +276,13 @@ pub fn run<C: FrameClock>(
         .map(|_| crate::realtime_figures::LatencyProbe::new());
     let mut replayed = crate::record::frame_timing::Cursor::new(m.replayed_timing);
     warm_up_blocking();
-    // The executive's clock starts with the first frame, just after this.
+    // The executive's clock starts with the first frame, just after this;
+    // a recording without a time base yet takes the Unix time of it.
     hw.borrow_mut().start_receive_clock();
+    if !tap.borrow().has_begun() {
+        tap.borrow_mut()
+            .begin(speleo_scheduler::realtime::unix_now_ns());
+    }
     let started = Instant::now();
     accounting::reset();
     accounting::reset_heap_peak();
@@ -580,6 +587,7 @@ pub fn run<C: FrameClock>(
         planner,
         recorder: t.counters,
         counters: bus.counters,
+        lidar: bus.lidar,
     })
 }
 

@@ -132,6 +132,13 @@ impl FrameClock for MonotonicClock {
     }
 }
 
+/// Now as Unix time, ns (0 before 1970): the time base recordings carry.
+pub fn unix_now_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
+}
+
 /// What real-time setup achieved.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RealtimeReport {

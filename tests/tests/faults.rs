@@ -72,7 +72,9 @@ fn run_frames<C: FrameClock>(
     frames: u64,
     clock: C,
 ) -> mission::MissionResult {
-    let tap = RefCell::new(RecorderTap::new(0, None, 4096));
+    let mut tap = RecorderTap::new(None, 4096);
+    tap.begin(0);
+    let tap = RefCell::new(tap);
     let stop = AtomicBool::new(false);
     mission::run(
         MissionInputs {

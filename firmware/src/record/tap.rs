@@ -39,6 +39,8 @@ pub struct TapCounters {
 
 pub struct RecorderTap {
     epoch_ns: u64,
+    /// The time base is set ([`RecorderTap::begin`]).
+    begun: bool,
     writer: Option<TapWriter>,
     local: Vec<u8>,
     local_large: Vec<u8>,
@@ -52,11 +54,12 @@ pub struct RecorderTap {
 }
 
 impl RecorderTap {
-    /// `epoch_ns` is added to every time so recordings carry Unix times;
+    /// A tap without its time base yet ([`RecorderTap::begin`]);
     /// `large_capacity` is the size of a point-cloud message.
-    pub fn new(epoch_ns: u64, compare: Option<Comparer>, large_capacity: usize) -> Self {
+    pub fn new(compare: Option<Comparer>, large_capacity: usize) -> Self {
         RecorderTap {
-            epoch_ns,
+            epoch_ns: 0,
+            begun: false,
             writer: None,
             local: Vec::with_capacity(MESSAGE_CAPACITY),
             local_large: Vec::with_capacity(large_capacity),
@@ -86,6 +89,29 @@ impl RecorderTap {
             blocking,
         });
         self
+    }
+
+    /// Mission time 0 is `epoch_ns` (Unix ns): added to every time so
+    /// recordings carry Unix times, and written with the run's metadata.
+    /// Only the first call counts.
+    pub fn begin(&mut self, epoch_ns: u64) {
+        if self.begun {
+            return;
+        }
+        self.begun = true;
+        self.epoch_ns = epoch_ns;
+        if let Some(w) = self.writer.as_mut() {
+            // The ring has a slot for it beside every buffer's.
+            if w.tx.push(WriterMsg::Begin(epoch_ns)).is_err() {
+                self.counters.writer_gone = true;
+            }
+            w.thread.unpark();
+        }
+    }
+
+    /// Whether [`RecorderTap::begin`] has set the time base.
+    pub fn has_begun(&self) -> bool {
+        self.begun
     }
 
     pub fn epoch_ns(&self) -> u64 {

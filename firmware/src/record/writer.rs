@@ -37,6 +37,9 @@ pub struct Outgoing {
 }
 
 pub enum WriterMsg {
+    /// The recording's time base, Unix ns at mission time 0: the
+    /// `speleo.run` metadata is written with it, before any message.
+    Begin(u64),
     Message(Outgoing),
     /// Write a metadata record (e.g. the run summary) and finish the file.
     Finish(BTreeMap<String, String>),
@@ -54,7 +57,8 @@ pub struct WriterOptions {
     /// Buffers for point clouds: how many, and how large.
     pub large_pool: usize,
     pub large_capacity: usize,
-    /// Written as the `speleo.run` metadata record before any message.
+    /// Written as the `speleo.run` metadata record, with `epoch_ns` from
+    /// [`WriterMsg::Begin`], before any message.
     pub run_metadata: BTreeMap<String, String>,
 }
 
@@ -80,8 +84,7 @@ fn open(path: &Path, opts: &WriterOptions) -> Result<mcap::Writer<File>, String>
     start(file, path, opts)
 }
 
-/// Start a recording on `sink`: header, schemas, channels and the run's
-/// metadata.
+/// Start a recording on `sink`: header, schemas and channels.
 fn start<W: Write + Seek>(
     sink: W,
     path: &Path,
@@ -124,12 +127,23 @@ fn start<W: Write + Seek>(
         w.add_channel_with_id(t.channel_id(), sid, i.name, i.message_encoding(), &meta)
             .map_err(|e| e.to_string())?;
     }
+    Ok(w)
+}
+
+/// The `speleo.run` record: the run's metadata and its time base.
+fn write_run<W: Write + Seek>(
+    w: &mut mcap::Writer<W>,
+    run: &BTreeMap<String, String>,
+    epoch_ns: Option<u64>,
+) -> Result<(), mcap::McapError> {
+    let mut metadata = run.clone();
+    if let Some(e) = epoch_ns {
+        metadata.insert("epoch_ns".into(), e.to_string());
+    }
     w.write_metadata(&mcap::records::Metadata {
         name: "speleo.run".into(),
-        metadata: opts.run_metadata.clone(),
+        metadata,
     })
-    .map_err(|e| e.to_string())?;
-    Ok(w)
 }
 
 /// Create the file and start the thread. The file is created before this
@@ -137,8 +151,8 @@ fn start<W: Write + Seek>(
 /// will record: that thread is unparked when buffers come back.
 pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
     let mut w = opts.path.as_deref().map(|p| open(p, &opts)).transpose()?;
-    // One more slot than buffers, for the closing message.
-    let (tx, rx) = rtrb::RingBuffer::<WriterMsg>::new(opts.pool + opts.large_pool + 1);
+    // Two more slots than buffers, for the opening and closing messages.
+    let (tx, rx) = rtrb::RingBuffer::<WriterMsg>::new(opts.pool + opts.large_pool + 2);
     let (mut pool_tx, pool_rx) = rtrb::RingBuffer::<Vec<u8>>::new(opts.pool);
     for _ in 0..opts.pool {
         let _ = pool_tx.push(Vec::with_capacity(MESSAGE_CAPACITY));
@@ -149,6 +163,7 @@ pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
     }
     let path = opts.path.clone().unwrap_or_default();
     let live = opts.live.clone();
+    let run_metadata = opts.run_metadata;
     let recorder = std::thread::current();
     let thread = std::thread::Builder::new()
         .name("mcap-writer".into())
@@ -156,6 +171,7 @@ pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
             run(
                 w.as_mut(),
                 &path,
+                &run_metadata,
                 live.as_deref(),
                 rx,
                 [pool_tx, large_tx],
@@ -174,6 +190,7 @@ pub fn spawn(opts: WriterOptions) -> Result<WriterHandle, String> {
 fn run(
     mut w: Option<&mut mcap::Writer<File>>,
     path: &Path,
+    run_metadata: &BTreeMap<String, String>,
     live: Option<&LiveServer>,
     mut rx: rtrb::Consumer<WriterMsg>,
     mut pools: [rtrb::Producer<Vec<u8>>; 2],
@@ -182,6 +199,7 @@ fn run(
     let err = |e: mcap::McapError| format!("{}: {e}", path.display());
     let mut stats = WriterStats::default();
     let mut summary = BTreeMap::new();
+    let mut begun = false;
     loop {
         let msg = match rx.pop() {
             Ok(m) => m,
@@ -192,6 +210,12 @@ fn run(
             }
         };
         match msg {
+            WriterMsg::Begin(epoch_ns) => {
+                if let (Some(w), false) = (w.as_mut(), begun) {
+                    write_run(w, run_metadata, Some(epoch_ns)).map_err(err)?;
+                }
+                begun = true;
+            }
             WriterMsg::Message(m) => {
                 let header = mcap::records::MessageHeader {
                     channel_id: m.topic.channel_id(),
@@ -222,6 +246,10 @@ fn run(
     let Some(w) = w else {
         return Ok(stats);
     };
+    // A run that ended before its first frame: its configuration still.
+    if !begun {
+        write_run(w, run_metadata, None).map_err(err)?;
+    }
     if !summary.is_empty() {
         w.write_metadata(&mcap::records::Metadata {
             name: "speleo.summary".into(),
@@ -282,9 +310,10 @@ mod tests {
             pool: 1,
             large_pool: 0,
             large_capacity: 0,
-            run_metadata: BTreeMap::from([("epoch_ns".to_string(), "0".to_string())]),
+            run_metadata: BTreeMap::from([("mode".to_string(), "sim".to_string())]),
         };
         let mut w = start(AppendCheck::default(), Path::new("memory.mcap"), &opts).expect("start");
+        write_run(&mut w, &opts.run_metadata, Some(0)).expect("run metadata");
         let mut x: u32 = 0x2545_F491;
         for seq in 0..200u32 {
             let data: Vec<u8> = (0..300)
@@ -335,5 +364,64 @@ mod tests {
             }
         }
         assert!(last > 0, "{last}");
+    }
+
+    /// A recorder begun at `epoch_ns` (Unix ns) with one message at mission
+    /// time `at_ns`, read back.
+    fn begun_at(epoch_ns: Option<u64>, at_ns: u64) -> super::super::read::Recording {
+        let dir = tempfile::tempdir().expect("dir");
+        let path = dir.path().join("a.mcap");
+        let h = spawn(WriterOptions {
+            path: Some(path.clone()),
+            live: None,
+            zstd: false,
+            chunk_size: 4096,
+            pool: 2,
+            large_pool: 0,
+            large_capacity: 0,
+            run_metadata: BTreeMap::from([("mode".to_string(), "run".to_string())]),
+        })
+        .expect("writer");
+        let thread = h.thread.thread().clone();
+        let mut tap = super::super::tap::RecorderTap::new(None, 0).with_writer(
+            h.tx,
+            h.pool,
+            h.large_pool,
+            thread,
+            true,
+        );
+        if let Some(e) = epoch_ns {
+            tap.begin(e);
+            // Only the first time base counts.
+            tap.begin(e + 1);
+        }
+        tap.raw(Topic::RawImu, "imu", 0, at_ns, at_ns, &[0xFA, 0xFF]);
+        tap.finish(BTreeMap::new());
+        h.thread.join().expect("joined").expect("written");
+        super::super::read::load(&path).expect("read back")
+    }
+
+    #[test]
+    fn the_time_base_is_the_one_the_recording_began_with() {
+        let epoch = 1_767_225_600_000_000_000;
+        let r = begun_at(Some(epoch), 250_000_000);
+        assert_eq!(
+            r.run.get("epoch_ns").map(String::as_str),
+            Some("1767225600000000000")
+        );
+        assert_eq!(r.epoch_ns(), epoch);
+        assert_eq!(r.run.get("mode").map(String::as_str), Some("run"));
+        // Receive times come back relative to the time base.
+        assert_eq!(
+            r.inputs.first().map(|i| i.receive_time_ns),
+            Some(250_000_000)
+        );
+    }
+
+    #[test]
+    fn a_recording_that_never_began_keeps_its_configuration() {
+        let r = begun_at(None, 0);
+        assert_eq!(r.run.get("mode").map(String::as_str), Some("run"));
+        assert!(!r.run.contains_key("epoch_ns"));
     }
 }

@@ -40,7 +40,6 @@ pub fn run(capture: &Path, out: &Path, cfg: &Config) -> Result<ImportSummary, Er
     let mut meta = BTreeMap::new();
     meta.insert("config".into(), cfg.to_toml());
     meta.insert("mode".into(), "import".into());
-    meta.insert("epoch_ns".into(), t0.to_string());
     meta.insert(
         "minor_frame_us".into(),
         cfg.executive.minor_frame_us.to_string(),
@@ -59,13 +58,10 @@ pub fn run(capture: &Path, out: &Path, cfg: &Config) -> Result<ImportSummary, Er
         run_metadata: meta,
     })?;
     let thread = h.thread.thread().clone();
-    let tap = RefCell::new(RecorderTap::new(t0, None, large).with_writer(
-        h.tx,
-        h.pool,
-        h.large_pool,
-        thread,
-        true,
-    ));
+    let mut tap =
+        RecorderTap::new(None, large).with_writer(h.tx, h.pool, h.large_pool, thread, true);
+    tap.begin(t0);
+    let tap = RefCell::new(tap);
     let mut s = ImportSummary {
         data_packets: 0,
         position_packets: 0,

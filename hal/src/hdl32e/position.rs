@@ -6,6 +6,9 @@ use super::POSITION_PACKET_LEN;
 const TIMESTAMP_AT: usize = 198;
 const NMEA_AT: usize = 206;
 const NMEA_LEN: usize = 72;
+/// Time between two position packets: the sensor sends about 200 a second
+/// whether or not a GPS receiver is connected.
+pub const POSITION_PERIOD_NS: u64 = 5_000_000;
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct PositionPacket {
@@ -32,6 +35,17 @@ impl core::fmt::Display for PositionError {
 }
 
 impl PositionPacket {
+    /// The 512 bytes on the wire: the timestamp and the sentence at their
+    /// offsets; the gyro, temperature and accelerometer fields and the
+    /// unused bytes zero.
+    pub fn to_bytes(&self) -> [u8; POSITION_PACKET_LEN] {
+        let mut b = [0u8; POSITION_PACKET_LEN];
+        b[TIMESTAMP_AT..TIMESTAMP_AT + 4].copy_from_slice(&self.timestamp_us.to_le_bytes());
+        let n = self.nmea.len();
+        b[NMEA_AT..NMEA_AT + n].copy_from_slice(self.nmea.as_bytes());
+        b
+    }
+
     pub fn parse(b: &[u8]) -> Result<PositionPacket, PositionError> {
         if b.len() != POSITION_PACKET_LEN {
             return Err(PositionError::WrongLength(b.len()));
@@ -54,5 +68,43 @@ impl PositionPacket {
             timestamp_us: ts,
             nmea,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_packet_reads_back_as_it_was_written() {
+        let mut nmea = heapless::String::new();
+        let _ = nmea
+            .push_str("$GPRMC,220632,A,3707.8324,N,12139.2864,W,000.0,144.7,111212,013.8,E,D*09");
+        let p = PositionPacket {
+            timestamp_us: 3_599_999_999,
+            nmea,
+        };
+        let b = p.to_bytes();
+        assert_eq!(b.len(), POSITION_PACKET_LEN);
+        assert_eq!(PositionPacket::parse(&b), Ok(p));
+    }
+
+    #[test]
+    fn without_a_receiver_the_sentence_is_empty() {
+        let p = PositionPacket {
+            timestamp_us: 5_000,
+            nmea: heapless::String::new(),
+        };
+        let back = PositionPacket::parse(&p.to_bytes()).expect("512 bytes");
+        assert_eq!(back.timestamp_us, 5_000);
+        assert!(back.nmea.is_empty());
+    }
+
+    #[test]
+    fn other_lengths_are_refused_with_theirs() {
+        assert_eq!(
+            PositionPacket::parse(&[0; 511]),
+            Err(PositionError::WrongLength(511))
+        );
     }
 }

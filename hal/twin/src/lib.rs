@@ -304,6 +304,7 @@ impl LidarSource for LidarTwin {
     fn poll(&mut self, now_ns: u64, sink: &mut dyn InputSink) -> Result<(), HalError> {
         if let LidarTwin::On(l) = self {
             deliver(l.outbox(), Device::Lidar, now_ns, sink);
+            deliver(l.positions(), Device::LidarPosition, now_ns, sink);
         }
         Ok(())
     }

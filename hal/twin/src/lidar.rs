@@ -24,7 +24,10 @@ use parry3d::shape::{CompositeShapeRef, TriMesh};
 use crate::noise::Noise;
 use crate::ray_caster::{Aim, Head, RayCaster};
 use speleo_hal::hdl32e::encode::{Firing, PacketEncoder};
-use speleo_hal::hdl32e::{Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS, PACKET_LEN};
+use speleo_hal::hdl32e::position::{PositionPacket, POSITION_PERIOD_NS};
+use speleo_hal::hdl32e::{
+    Calibration, BLOCK_PERIOD_NS, LASERS, LASER_PERIOD_NS, PACKET_LEN, POSITION_PACKET_LEN,
+};
 use speleo_hal::outbox::Outbox;
 use speleo_physics::quat::{self, Quat};
 use speleo_physics::terrain::{Material, Mesh};
@@ -267,6 +270,10 @@ pub struct LidarTwin {
     /// Azimuth advance per firing, hundredths.
     step: f64,
     outbox: Outbox<32, PACKET_LEN>,
+    /// Position packets: the sensor's clock, no GPS sentence (none reaches
+    /// a cave).
+    positions: Outbox<8, POSITION_PACKET_LEN>,
+    next_position_ns: u64,
     /// The queued rays are being cast (`launch` without `finish`).
     launched: bool,
     /// Returns beyond the 16-bit distance field.
@@ -298,6 +305,8 @@ impl LidarTwin {
             azimuth: 0.0,
             step,
             outbox: Outbox::new(),
+            positions: Outbox::new(),
+            next_position_ns: 0,
             launched: false,
             out_of_range: 0,
         }
@@ -309,8 +318,12 @@ impl LidarTwin {
         &mut self.outbox
     }
 
+    pub(crate) fn positions(&mut self) -> &mut Outbox<8, POSITION_PACKET_LEN> {
+        &mut self.positions
+    }
+
     pub fn dropped(&self) -> u64 {
-        self.outbox.dropped()
+        self.outbox.dropped() + self.positions.dropped()
     }
 
     /// Take the oldest queued packet, whatever its arrival time (benchmarks
@@ -333,6 +346,7 @@ impl LidarTwin {
         // The launched rays are still being cast: their packets come first.
         self.finish();
         self.aim_firings(t0, t1, pose0, pose1);
+        self.queue_positions(t1);
         // The helper starts on each full chunk while the physics steps on.
         self.caster.publish(&self.aims, self.p.max_range_m, false);
     }
@@ -376,6 +390,20 @@ impl LidarTwin {
             self.firings.push(firing);
             self.azimuth = (self.azimuth + self.step) % 36000.0;
             self.next_firing_ns += BLOCK_PERIOD_NS as u64;
+        }
+    }
+
+    /// Queue the position packets due before `t1`.
+    fn queue_positions(&mut self, t1: u64) {
+        while self.next_position_ns < t1 {
+            let t = self.next_position_ns;
+            let packet = PositionPacket {
+                timestamp_us: ((t / 1000) % 3_600_000_000) as u32,
+                nmea: heapless::String::new(),
+            };
+            self.positions
+                .push(t + self.p.latency_ns, &packet.to_bytes());
+            self.next_position_ns += POSITION_PERIOD_NS;
         }
     }
 

@@ -58,3 +58,27 @@ fn looking_ahead_delivers_the_same_inputs_at_the_same_times() {
     assert_eq!(p0, p1);
     assert_eq!(p0, p2);
 }
+
+#[test]
+fn the_lidar_sends_a_position_packet_every_5_ms_on_its_own_clock() {
+    use speleo_hal::hdl32e::position::PositionPacket;
+    let (log, _) = run(true, 2);
+    let positions: Vec<(u64, PositionPacket)> = log
+        .0
+        .iter()
+        .filter(|i| i.0 == Device::LidarPosition)
+        .map(|i| (i.1, PositionPacket::parse(&i.2).expect("512 bytes")))
+        .collect();
+    // 0.59 s of inputs: about 200 a second.
+    assert!(
+        (115..=120).contains(&positions.len()),
+        "{}",
+        positions.len()
+    );
+    for pair in positions.windows(2) {
+        assert_eq!(pair[1].0 - pair[0].0, 5_000_000);
+        assert_eq!(pair[1].1.timestamp_us - pair[0].1.timestamp_us, 5_000);
+    }
+    // No GPS receiver reaches a cave: no sentence.
+    assert!(positions.iter().all(|(_, p)| p.nmea.is_empty()));
+}

@@ -17,6 +17,7 @@ use flight_config::write_flight_config;
 use verdict::{judge, print_side_by_side};
 
 mod flight_config;
+pub mod track;
 pub mod verdict;
 
 /// What `speleo hil` is asked to do.
@@ -105,7 +106,8 @@ pub fn hil(r: HilRequest) -> Result<ExitCode, Error> {
     let twin_status = stop(&mut twin.0, "the twin")?;
     let flight_report = read_json(&out("flight.json"))?;
     let twin_report = read_json(&out("twin.json"))?;
-    let bench = judge(&flight_report, &twin_report);
+    let mut bench = judge(&flight_report, &twin_report);
+    bench["track"] = compare_tracks(&out("flight.mcap"), &out("twin.mcap"), &twin_report);
     print_side_by_side(&flight_report, &twin_report, &bench);
     if let Some(p) = &r.report {
         let all = json!({
@@ -125,6 +127,31 @@ pub fn hil(r: HilRequest) -> Result<ExitCode, Error> {
         .into());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The SLAM track against the truth's, or null (said why) when the
+/// recordings cannot give it.
+fn compare_tracks(flight: &Path, twin: &Path, twin_report: &Value) -> Value {
+    let start: Option<Vec<f64>> = twin_report["run"]["truth_start"]
+        .as_array()
+        .and_then(|a| a.iter().map(Value::as_f64).collect());
+    let Some([x, y, z, yaw]) = start.as_deref().and_then(|s| <[f64; 4]>::try_from(s).ok()) else {
+        eprintln!("note: the twin's report has no start pose; the tracks were not compared");
+        return Value::Null;
+    };
+    match track::track_error(flight, twin, [x, y, z, yaw]) {
+        Ok(Some(e)) => json!(e),
+        Ok(None) => {
+            eprintln!(
+                "note: no SLAM pose fell within the twin's truth; the tracks were not compared"
+            );
+            Value::Null
+        }
+        Err(e) => {
+            eprintln!("note: the tracks were not compared: {e}");
+            Value::Null
+        }
+    }
 }
 
 /// A child process killed if the bench ends early (an error on the way).

@@ -58,6 +58,13 @@ pub fn print_side_by_side(flight: &Value, twin: &Value, bench: &Value) {
         n(&bench["pose"]["position_error_m"]),
         ""
     );
+    let t = &bench["track"];
+    println!(
+        "{:<34} {:>16} {:>16}",
+        "SLAM track error mean/p95/max, m",
+        format!("{}/{}/{}", n(&t["mean_m"]), n(&t["p95_m"]), n(&t["max_m"])),
+        ""
+    );
     println!(
         "{:<34} {:>16} {:>16}",
         "explored area, m2",

@@ -87,10 +87,6 @@ pub fn twin(r: TwinRequest) -> Result<ExitCode, Error> {
     params.start_on_ground = cfg.sim.start.is_some();
     let mut hw = TwinHardware::with_world(&params, &world)?;
     let mut links = Links::open(&s.table.links()?)?;
-    let epoch_ns = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos() as u64)
-        .unwrap_or(0);
     if let Some(p) = &r.record {
         let mut meta = BTreeMap::new();
         meta.insert("world".into(), cfg.sim.world.clone());
@@ -99,7 +95,7 @@ pub fn twin(r: TwinRequest) -> Result<ExitCode, Error> {
             meta.insert("noise_seed".into(), n.to_string());
         }
         meta.insert("config".into(), s.text.clone());
-        links.tape = Some(tape::Tape::create(p, epoch_ns, meta)?);
+        links.tape = Some(tape::Tape::create(p, meta)?);
     }
     let (imu, can) = links.port_paths();
     // One line for whoever wires the flight binary to the twin (`speleo hil`

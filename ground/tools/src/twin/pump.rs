@@ -83,6 +83,11 @@ pub fn run(
     };
     let mut last = first.position;
     clock.start();
+    // The recording's times are Unix times from here, as the flight
+    // binary's count from its first frame: the two tracks line up.
+    if let Some(t) = &mut links.tape {
+        t.begin(speleo_scheduler::realtime::unix_now_ns());
+    }
     let mut next = 0u64;
     while !stop.load(Ordering::Relaxed) {
         let step = clock.wait_frame(next);

@@ -95,12 +95,9 @@ pub struct Tape {
 
 impl Tape {
     /// Create `path` and start writing; `meta` becomes the `speleo.twin`
-    /// metadata record. `epoch_ns`: the Unix time of the twin's time zero.
-    pub fn create(
-        path: &Path,
-        epoch_ns: u64,
-        meta: BTreeMap<String, String>,
-    ) -> Result<Tape, String> {
+    /// metadata record. Times count from the Unix epoch until
+    /// [`Tape::begin`] says when the twin's time zero is.
+    pub fn create(path: &Path, meta: BTreeMap<String, String>) -> Result<Tape, String> {
         let file =
             File::create(path).map_err(|e| format!("cannot create {}: {e}", path.display()))?;
         let mut w = mcap::WriteOptions::new()
@@ -143,10 +140,15 @@ impl Tape {
         Ok(Tape {
             tx: Some(tx),
             thread: Some(thread),
-            epoch_ns,
+            epoch_ns: 0,
             dropped: 0,
             path: path.to_path_buf(),
         })
+    }
+
+    /// The twin's time zero is `epoch_ns` (Unix ns): its clock starts.
+    pub fn begin(&mut self, epoch_ns: u64) {
+        self.epoch_ns = epoch_ns;
     }
 
     /// Record bytes on `track` at twin time `t_ns`.
