@@ -9,12 +9,18 @@
 //! against), the garage (concrete walls and slabs all around: the densest
 //! LiDAR returns) and the replay of a recorded route mission.
 //!
-//! A task passes when its p99.9 is within its budget and, for the tasks
-//! that may allocate, no run requested more heap than its memory budget.
-//! Its maximum time is printed beside it but not judged: on a shared Linux
-//! machine without real-time priority it includes preemptions by other
-//! processes. Each scenario also shows the heap's high-water mark and how
-//! much its second half raised it.
+//! A task passes when the p99.9 of its execution time is within its budget
+//! and, for the tasks that may allocate, no run requested more heap than its
+//! memory budget. The execution time is the frame thread's CPU time where
+//! the platform measures it (Linux), the wall clock elsewhere: on a shared
+//! machine without real-time priority the wall clock adds whatever other
+//! processes preempted the thread for, which on the rover its SCHED_FIFO
+//! priority keeps out (`speleo run` reports what preemption is left as
+//! frame start lateness and deadline misses). A neighbour's load still
+//! counts where it slows the work itself (caches, memory bandwidth). The
+//! wall-clock p99.9 and maximum are printed beside it but not judged. Each
+//! scenario also shows the heap's high-water mark and how much its second
+//! half raised it.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -178,7 +184,7 @@ pub fn verdicts(tasks: &[TaskFigures]) -> Vec<TaskVerdict> {
             overruns: t.overruns,
             alloc_bytes_max_run: t.alloc_bytes_max_run,
             memory_budget_kib: t.memory_budget_kib,
-            pass: (t.runs == 0 || t.p999_us <= t.budget_us as f64)
+            pass: (t.runs == 0 || t.cpu_p999_us.unwrap_or(t.p999_us) <= t.budget_us as f64)
                 && t.memory_budget_kib
                     .is_none_or(|kib| t.alloc_bytes_max_run <= kib as u64 * 1024),
         })
@@ -311,6 +317,9 @@ pub fn wcet(
             vec![s]
         }
     };
+    println!(
+        "judged: each task's p99.9 CPU time against its budget (the wall clock's, with preemption, beside it)"
+    );
     let mut scenarios = Vec::new();
     if let Some(log) = recording {
         let r = run_recording(log, progress)?;
@@ -323,7 +332,7 @@ pub fn wcet(
         scenarios.push(r);
     }
     let out = WcetReport {
-        criterion: "p99.9 within the time budget; heap per run within the memory budget",
+        criterion: "p99.9 of the execution time (the thread's CPU time where measured) within the time budget; heap per run within the memory budget",
         pass: scenarios.iter().all(|s| s.pass),
         scenarios,
     };
@@ -407,6 +416,17 @@ mod tests {
             alloc_bytes_max_run: 0,
             memory_budget_kib: None,
         }
+    }
+
+    #[test]
+    fn a_task_is_judged_on_its_cpu_time_where_it_was_measured() {
+        // Preempted for 2 ms at p99.9 on the wall clock; 0.8 ms of work.
+        let mut preempted = task(2_800.0, 9_000.0, 100);
+        preempted.cpu_p999_us = Some(800.0);
+        let mut slow = task(950.0, 950.0, 100);
+        slow.cpu_p999_us = Some(920.0);
+        let v = verdicts(&[preempted, slow]);
+        assert_eq!(v.iter().map(|t| t.pass).collect::<Vec<_>>(), [true, false]);
     }
 
     #[test]
