@@ -38,15 +38,14 @@ pub struct PlannerStepUnits {
 }
 
 impl Default for PlannerStepUnits {
-    /// Grow from `speleo wcet --calibrate` with another mission on the
-    /// other core (a rover's computer is not idle): 25.5 us a unit at
-    /// p99.9 of the CPU time, so 54 units overran the window. The other
-    /// phases keep the idle machine's table: their units hold under that
-    /// load (see `docs/configuration.md`), and each change of pace changes
-    /// where the missions go.
+    /// `speleo wcet --calibrate` on the idle development machine (2 cores,
+    /// the six default scenarios) for the 1 ms window the planner had then;
+    /// beside another mission they fill the 1.5 ms window it has now
+    /// (`docs/mission-history.md` has both measurements). Pick made too
+    /// few steps to measure (a scan of 128 nodes a unit, ~1 us).
     fn default() -> Self {
         PlannerStepUnits {
-            grow: 35,
+            grow: 54,
             pick: 128,
             candidates: 35,
             prepare: 19,
