@@ -65,9 +65,8 @@ fn the_flight_binary_drives_the_twin_over_the_wire_and_replays_identically() {
         "ended {error:.2} m from where it believed it was"
     );
     // And all the way: each SLAM pose against the truth at its time (the
-    // two recordings share the machine's clock). A simulated mission's SLAM
-    // error on this tube is a few centimetres; a flight recording dated
-    // from before its first frame was a second off and read 0.5 m.
+    // two recordings share the machine's clock); a simulated mission's
+    // SLAM error is a few centimetres.
     let track = &verdict["track"];
     assert!(
         track["poses"].as_u64() > Some(1000) && f(&track["mean_m"]) < 0.25,

@@ -53,7 +53,7 @@ impl Session {
         blocking: bool,
     ) -> Result<Session, Error> {
         let large = mission::cloud_message_capacity(cfg.lidar.max_points_per_frame);
-        let mut tap = RecorderTap::new(comparer, large);
+        let tap = RecorderTap::new(comparer, large);
         let live = match &out.live {
             Some(address) => {
                 let server = LiveServer::start(address)?;
@@ -65,35 +65,29 @@ impl Session {
             }
             None => None,
         };
-        if out.record.is_none() && live.is_none() {
-            if let Some(e) = epoch_ns {
-                tap.begin(e);
-            }
-            return Ok(Session {
-                tap: RefCell::new(tap),
-                writer: None,
-                live: None,
-                replayed_timing: Vec::new(),
-            });
-        }
-        let h = writer::spawn(WriterOptions {
-            path: out.record.clone(),
-            live: live.clone(),
-            zstd: cfg.record.compression == "zstd",
-            chunk_size: cfg.record.chunk_size_kib as u64 * 1024,
-            pool: cfg.record.pool_messages as usize,
-            large_pool: 4,
-            large_capacity: large,
-            run_metadata: meta,
-        })?;
-        let thread = h.thread.thread().clone();
-        let mut tap = tap.with_writer(h.tx, h.pool, h.large_pool, thread, blocking);
+        let (mut tap, writer) = if out.record.is_none() && live.is_none() {
+            (tap, None)
+        } else {
+            let h = writer::spawn(WriterOptions {
+                path: out.record.clone(),
+                live: live.clone(),
+                zstd: cfg.record.compression == "zstd",
+                chunk_size: cfg.record.chunk_size_kib as u64 * 1024,
+                pool: cfg.record.pool_messages as usize,
+                large_pool: 4,
+                large_capacity: large,
+                run_metadata: meta,
+            })?;
+            let thread = h.thread.thread().clone();
+            let tap = tap.with_writer(h.tx, h.pool, h.large_pool, thread, blocking);
+            (tap, Some(h.thread))
+        };
         if let Some(e) = epoch_ns {
             tap.begin(e);
         }
         Ok(Session {
             tap: RefCell::new(tap),
-            writer: Some(h.thread),
+            writer,
             live,
             replayed_timing: Vec::new(),
         })

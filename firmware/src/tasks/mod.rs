@@ -122,9 +122,8 @@ pub const TOPOLOGY: [Node; 12] = [
         reads: &["keyframe_clouds"],
         does: "the multi-level surface map from the keyframes' clouds, a part of a cloud a step" },
     // One phase's quantum a frame (graph nodes grown, lattice units
-    // prepared, or ARA* expansions). The window holds the steps' p99.9
-    // with another process busy on the other core, which slows the
-    // map-bound growth by half through the shared caches.
+    // prepared, or ARA* expansions); the window holds the steps' p99.9
+    // with another process busy on the other core.
     Node { task: "planner", rate: EVERY, budget_us: 1_500, policy: Skip, safe: false,
         anytime: Some(AnytimeSpec { quantum: PLANNER_QUANTUM, steps: 1, window_us: 1_500 }),
         writes: &["plan", "exploration"],
@@ -144,8 +143,7 @@ pub const TOPOLOGY: [Node; 12] = [
         writes: &["health", "safe_mode_request", "recovery_ready"],
         reads: &["drives", "drive_stop", "imu", "lidar", "odom_counters", "counters", "timing"],
         does: "device freshness, drive faults, wheel disagreement, overrun storms; requests the safe schedule and the way back" },
-    // Encodes the frame's messages into pooled buffers (CPU p99.9 under
-    // 1 ms); the writer thread compresses and writes them.
+    // Encodes the frame's messages (CPU p99.9 < 1 ms); the writer thread compresses them.
     Node { task: "recorder", rate: EVERY, budget_us: 1_900, policy: Degrade, safe: true, anytime: None,
         writes: &[],
         reads: &["raw", "imu", "cloud", "drives", "drive_stop", "odom", "slam", "plan", "command", "can_tx", "imu_tx", "imu_config", "health", "counters"],
